@@ -493,12 +493,13 @@ def test_knots_read_as_m_s_with_the_dvl_a_day_off_are_refused_naming_the_unit_no
                                                                                               turn):
     """Knots with no velocity_unit, the DVL a day off, clock auto: the envelope refused 229 pings, the window across
     the hole they leave spoiled the true offset, and the clock search settled 252 s off (explained 0.34): loaded there
-    with warnings only. Turned 90 deg too, the turn was announced at that offset. Now the knots are named."""
+    with warnings only. Turned 90 deg too, the turn was announced at that offset (a weak peak beside the hole, 250-275 s
+    off as the windows fall about it). Now the knots are named."""
     from graphnav.calibration.dvl_scale import turn_about_z
     m, t, v_b = sim600
     v = v_b @ turn_about_z(turn).T / KNOT
     said = (r"declare csv_columns\.dvl\.velocity_unit 'kn'$" if not turn else
-            r"refused for their speed, and a turn of \+90 deg about z finds the clock only at -86651\.\d+ s, where "
+            r"refused for their speed, and a turn of \+90 deg about z finds the clock only at -866\d\d\.\d+ s, where "
             r"\d+ of the \d+ pings on the IMU span are among those without a velocity: .*the velocity's unit is the "
             r"likelier fault: declare csv_columns\.dvl\.velocity_unit$")
     with pytest.raises(DataError, match=said) as err:
@@ -540,6 +541,54 @@ def test_a_short_dvl_with_speed_spikes_whose_clock_cannot_be_modelled_loads_on_i
         got = _load(_folder(tmp_path, (m, t[keep], v[keep]), v[keep], {"clock": "auto"}))
     assert got.meta["streams"]["dvl"]["refused"]
     assert "dvl" not in got.meta.get("clock_offsets", {})
+
+
+def _outages(t, every_s, gap_s):
+    """True at the pings kept when the DVL loses bottom lock for ``gap_s`` s every ``every_s`` s (from 10 s in)."""
+    since = t - t[0] - 10.0
+    return (since < 0.0) | (since % every_s >= gap_s)
+
+
+def test_a_dvl_a_day_off_that_loses_bottom_lock_every_42_s_finds_its_clock_between_the_outages(sim600, tmp_path):
+    """25 s without pings every 42 s, the DVL a day off, clock auto: every clock-search window crossed a gap over 20 s
+    and was dropped, and the load was refused blaming the DVL noise ("best -inf"). The windows are cut at the gaps:
+    the 17 s of pings between two outages are fitted and the clock is found."""
+    m, t, v_b = sim600
+    keep = _outages(t, 42.0, 25.0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        got = _load(_folder(tmp_path, (m, t[keep], v_b[keep]), v_b[keep], {"clock": "auto"}, shift=86400.0))
+    assert got.config.dvl_time_offset_s == pytest.approx(-86400.0, abs=0.05)
+    found = got.meta["clock_offsets"]["dvl"]
+    assert found["confident"] and 0.5 < found["peak"] < 1.0 and found["second_peak"] < found["peak"]
+
+
+def test_a_dvl_too_broken_up_for_its_clock_is_refused_naming_the_gaps_not_the_noise(sim600, tmp_path):
+    """26 s without pings every 30 s leaves 4 pings between outages, too few for any window: the refusal says the
+    pings are too broken up and how (it blamed the DVL noise and printed a peak of -inf)."""
+    m, t, v_b = sim600
+    keep = _outages(t, 30.0, 26.0)
+    with pytest.raises(DataError, match=r"the DVL's pings are too broken up to find its clock: \d+ pings with a "
+                                        r"velocity over \d+ s, with 19 gap\(s\) over 20 s without one \(27 s long, "
+                                        r"starting every 30 s\), leaving 1 window\(s\) between them") as err:
+        _load(_folder(tmp_path, (m, t[keep], v_b[keep]), v_b[keep], {"clock": "auto"}, shift=86400.0))
+    assert err.value.source.endswith("dvl.csv") and "inf" not in str(err.value) and "noise" not in str(err.value)
+
+
+def test_a_dvl_mostly_without_pings_and_a_few_spikes_is_not_advised_a_knots_unit(sim600, tmp_path):
+    """61 % of the pings without a velocity (bottom lock lost) and 1 in 50 at 3x speed, the DVL a day off: the refusal
+    of the stream (over half refused) advised declaring knots, though in knots as many pings are refused. It now
+    says what the pings are refused for and that no unit changes it."""
+    m, t, v_b = sim600
+    v = v_b.copy()
+    v[::50] *= 3.0
+    v[np.random.default_rng(1).random(len(t)) < 0.6] = np.nan
+    with pytest.raises(DataError, match=r"^.*dvl\.csv, field 'vx, vy, vz': 373 of 601 dvl samples refused .*: "
+                                        r"more than 50% of the stream; 367 of the 601 pings are refused for what no "
+                                        r"velocity unit changes \(no valid beam\), over 50% without the 6 beyond the "
+                                        r"vehicle's envelope: check that the DVL kept bottom lock") as err:
+        _load(_folder(tmp_path, sim600, v, {"clock": "auto"}, shift=86400.0))
+    assert "'kn'" not in str(err.value)
 
 
 def test_a_turn_off_a_quarter_turn_is_said_about_it_with_the_remainder(sim, tmp_path):
@@ -961,6 +1010,40 @@ def test_an_akit_folder_without_gt_has_its_given_dvl_time_offset_judged(akit_dir
         assert doubted == {"dvl_time_offset_s used as given though the data disagree": 200}, doubted
 
 
+@pytest.mark.parametrize("name, seconds, start, shift", [("Trajectory1", 400.0, 0.0, 3.0),
+                                                         ("Trajectory5", 60.0, 240.0, 2.5),
+                                                         ("Trajectory11", 120.0, 140.0, -1.5)])
+def test_an_akit_folder_without_gt_whose_dvl_is_seconds_off_loads_where_the_clock_fit_puts_it(akit_dir, tmp_path, name,
+                                                                                             seconds, start, shift):
+    """Without GT a DVL file 2.5-3.5 s late (or 1.5 s early) loaded that far off the IMU clock at the vehicle's +1.02 s
+    with only the default's warning: the clock search leaves offsets within 3 s to the fine search, which needs the
+    GT. The DVL clock fit now places it (within 0.15 s of the clean copy at +1.02 s, whole and 60-120 s pieces), warned
+    about naming the offset and dvl_time_offset_s, and its pings are counted as doubted; the clean copy loads at +1.02 s
+    with the default's warning and no doubt, as before."""
+    src = akit_dir / name
+
+    def loaded(folder):
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            m = load_mission(folder)
+        return m, [str(w.message) for w in caught if "DVL" in str(w.message)]
+    clean, said = loaded(_akit_crop_without_gt(src, tmp_path / "clean", np.eye(3), seconds, start))
+    assert clean.config.dvl_time_offset_s == 1.02 and "doubted" not in clean.meta["streams"]["dvl"]
+    assert len(said) == 1 and "no GT file, so the DVL time offset cannot be estimated; using this vehicle's +1.02 s" \
+        in said[0], said
+    m, said = loaded(_akit_crop_without_gt(src, tmp_path / "off", np.eye(3), seconds, start, dvl_shift=shift))
+    assert len(m.dvl.t) == len(clean.dvl.t)
+    np.testing.assert_allclose(m.dvl.t, clean.dvl.t, atol=0.15)
+    number = name.removeprefix("Trajectory")
+    used = re.escape(f"{m.config.dvl_time_offset_s:+.3f} s")
+    found = re.match(rf".*DVL_trajectory{number}\.csv: field 'Time \[s\]': no GT file, and the DVL clock fit .* puts "
+                     rf"the DVL at {used} \(sigma .*, ([+-]\d\.\d\d) s from this vehicle's usual \+1\.02 s: {used} is "
+                     "used. Give dvl_time_offset_s", said[0]) if len(said) == 1 else None
+    assert found and float(found.group(1)) == pytest.approx(-shift, abs=0.15), said
+    from graphnav.calibration.preparation import AKIT_DVL_CLOCK_DOUBT
+    assert m.meta["streams"]["dvl"]["doubted"] == {AKIT_DVL_CLOCK_DOUBT: len(m.dvl.t)}
+
+
 def test_a_declared_velocity_unit_no_unit_explains_is_kept_with_a_counted_warning(sim, monkeypatch):
     """Where m/s fits the IMU 4x better than the declared cm/s but explains none of the velocity's changes either (a
     DVL noisier than the IMU's accelerations), the declared unit is kept: a warning naming the key, a note, and the
@@ -1133,3 +1216,48 @@ def test_a_slow_vehicle_kept_at_its_own_offset_loads_at_the_clock_found_off_its_
         got = _load(_folder(tmp_path, (slow, t, None), v_b, {"clock": "auto"}, shift=7.3))
     assert got.config.dvl_time_offset_s == pytest.approx(-7.3, abs=0.2)
     assert got.meta["streams"]["dvl"]["doubted"] == {FRAME_DOUBT: len(t), CLOCK_TAKEN_UNCLEAR: len(t)}
+
+
+@pytest.mark.parametrize("turn", [90.0, 180.0, 270.0])
+def test_a_dvl_turned_and_far_off_on_the_imu_span_is_refused_naming_the_turn_and_the_offset(sim, tmp_path, turn):
+    """A DVL turned about z (instrument-frame columns read as body) whose stamps lie on the IMU span but 60 s late
+    (``clock: auto``; 600 s late on a 5400 s log is the same): the clock search finds no clear offset for the turned
+    velocity, and the retry with the velocity turned back ran only off the span, so the log loaded 60 s off with the
+    turn warned about at the wrong clock. Now refused as off the span, naming the turn and the offset; the advised
+    ``dvl.C_d_b`` loads it on the IMU clock as the body's. On its right clock it loads as before, its turn warned
+    about."""
+    from graphnav.calibration.dvl_scale import TURNED_DOUBT, signed_turn, turn_about_z
+    m, t, v_b = sim
+    turned = v_b @ turn_about_z(turn).T
+    said = re.escape(f"{signed_turn(int(turn)):+d}")
+    with pytest.raises(DataError, match=rf"DVL clock offset not found .* with the stamps on the IMU span; but read as "
+                                        rf"turned {said} deg about z from the IMU's axes .* the DVL finds its clock at "
+                                        r"-(59\.9|60\.0)\d\d s .*: not the clock but a mounting turned about z\. The "
+                                        r"DVL velocity points forward only turned: .* dvl\.C_d_b \[\[") as err:
+        _load(_folder(tmp_path, sim, turned, {"clock": "auto"}, shift=60.0))
+    assert err.value.source.endswith("dvl.csv") and err.value.field == "vx, vy, vz"
+    C_d_b = json.loads(re.search(r"dvl\.C_d_b (\[\[.*?\]\])", str(err.value)).group(1))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        got = _load(_folder(tmp_path, sim, turned, {"clock": "auto", "frame": "instrument"}, C_d_b=C_d_b, shift=60.0))
+    np.testing.assert_allclose(got.dvl.v_b, v_b, atol=1e-9)
+    assert got.config.dvl_time_offset_s == pytest.approx(-60.0, abs=0.1)
+    with pytest.warns(RuntimeWarning, match=r"dvl\.csv: field 'vx, vy, vz': the DVL velocity .*about z"):
+        got = _load(_folder(tmp_path, sim, turned, {"clock": "auto"}))
+    assert got.config.dvl_time_offset_s == 0.0 and TURNED_DOUBT in got.meta["streams"]["dvl"]["doubted"]
+    np.testing.assert_array_equal(got.dvl.t, t)
+
+
+def test_a_noisy_dvl_pointing_forward_whose_clock_is_not_found_is_not_searched_turned(tmp_path, monkeypatch):
+    """A clean log with the default 0.042 m/s beam noise on its IMU span (``clock: auto``): the search finds no clear
+    offset, as for a turned DVL, but its velocity points forward and fits the IMU's axes: the three searches with the
+    velocity turned are not run (they tripled the clock search's cost on every such log)."""
+    from graphnav.calibration import preparation
+    tried = []
+    monkeypatch.setattr(preparation, "_turn_finds_the_clock", lambda *a, **k: tried.append(a))
+    m = simulate_mission(300.0, seed=1)
+    t, v_b = dvl_velocity_b(m.dvl, m.config)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        got = _load(_folder(tmp_path, (m, t, v_b), v_b, {"clock": "auto"}))
+    assert not got.meta["clock_offsets"]["dvl"]["confident"] and tried == []

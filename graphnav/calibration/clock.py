@@ -36,8 +36,8 @@ import numpy as np
 from scipy.optimize import minimize_scalar
 
 from graphnav.calibration.reference import _sigma_from_curvature
-from graphnav.core.dvl_kinematics import (COARSE_MAX_WINDOWS, MIN_OVERLAP_S, dvl_window_model, offset_grid,
-                                          search_overlap, with_enough_pings)
+from graphnav.core.dvl_kinematics import (COARSE_MAX_WINDOWS, MAX_WINDOW_GAP_S, MIN_OVERLAP_S, dvl_window_model,
+                                          gaps_said, offset_grid, search_overlap, with_enough_pings)
 from graphnav.core.errors import DataError
 from graphnav.core.streams import add_note, count_doubted, set_span
 from graphnav.core.timeseries import cumulative_integral, interp_rows, on_the_imu_clock, overlap_text
@@ -171,7 +171,9 @@ def estimate_dvl_clock_offset(imu, dvl, config=None, *, min_overlap_s: float = M
         A :class:`ClockOffset`; check ``confident`` (:func:`align_stream_clocks` refuses or warns on it).
 
     Raises:
-        DataError: fewer than two windows of usable pings, or logs too short to overlap ``min_overlap_s``.
+        DataError: fewer than two windows of usable pings (at every offset: pings broken up by outages over
+            :data:`~graphnav.core.dvl_kinematics.MAX_WINDOW_GAP_S`, the message names them), or logs too short to
+            overlap ``min_overlap_s``.
     """
     model, t_dvl = dvl_window_model(imu, dvl, config, lever_arm_b, window_pings, trim=True)
     ints, window = model.imu, model.window
@@ -180,6 +182,11 @@ def estimate_dvl_clock_offset(imu, dvl, config=None, *, min_overlap_s: float = M
     min_overlap_s = search_overlap(span_imu, span_dvl, window * period, min_overlap_s)
     h, coarse, best, second = _coarse_offset(model.thinned(COARSE_MAX_WINDOWS), ints.t, t_dvl, min_overlap_s,
                                              period, "DVL", dvl.source, search_s)
+    if not np.isfinite(best):
+        broken = np.any(np.diff(t_dvl) > MAX_WINDOW_GAP_S)
+        raise DataError(f"the DVL's pings are too {'broken up' if broken else 'few'} to find its clock: "
+                        f"{gaps_said(t_dvl, window)}, and no offset keeping {min_overlap_s:.0f} s of overlap puts two "
+                        "of those windows on the IMU span", dvl.source, field="t")
 
     # the same pings at every offset the refinement tries: one that left some out would fit the rest better. Two
     # grid steps each way: a ping entering the span moves the coarse scores by its share (a 60 s simulated log's

@@ -21,7 +21,7 @@ import numpy as np
 
 from graphnav.calibration.axes import TURN_ADVICE, mounting_text
 from graphnav.calibration.clock import COARSE_MAX_WINDOWS
-from graphnav.core.dvl_kinematics import (WINDOW_S, dvl_velocity_b, dvl_window_model, imu_integrals,
+from graphnav.core.dvl_kinematics import (WINDOW_S, centred, dvl_velocity_b, dvl_window_model, imu_integrals,
                                           without_window_fit)
 from graphnav.core.errors import DataError
 from graphnav.core.streams import add_note, count_doubted, say_doubted
@@ -117,10 +117,10 @@ def velocity_change_rms(model) -> tuple[float, float]:
     their second differences over sqrt(6), white noise's; m/s), at least 1e-9 m/s (float rounding). The second
     differences are taken over consecutive pings at the nominal period only (:func:`consecutive_triples`): across a
     gap the velocity has changed too, and half the pings dropped doubled the noise on Trajectory1."""
-    v = model.v
-    change = float(np.sqrt(np.mean((v - v.mean(axis=1, keepdims=True)) ** 2)))
+    v, real = model.v, model.real
+    change = float(np.sqrt(np.sum(centred(v, real) ** 2) / (3 * np.count_nonzero(real))))
     d2 = np.diff(v, 2, axis=1)
-    ok = consecutive_triples(model.t)
+    ok = consecutive_triples(model.t, real)
     noise = float(np.sqrt(np.mean((d2[ok] if ok.any() else d2) ** 2) / 6.0))
     return change, max(noise, 1e-9)
 
@@ -129,14 +129,16 @@ def velocity_change_rms(model) -> tuple[float, float]:
 CONSECUTIVE_STEP_FACTOR = 1.5
 
 
-def consecutive_triples(t: np.ndarray) -> np.ndarray:
-    """(W, n-2) bool: which second differences of pings stamped ``t`` (W, n) s (windows of n) join three consecutive
-    pings, both steps within :data:`CONSECUTIVE_STEP_FACTOR` of the nominal period (the 10th percentile of the steps:
-    the median of a log with most pings dropped is a multiple of it)."""
+def consecutive_triples(t: np.ndarray, real: np.ndarray) -> np.ndarray:
+    """(W, n-2) bool: which second differences of pings stamped ``t`` (W, n) s (windows of n; ``real`` (W, n) False
+    at a window's padding) join three consecutive pings, both steps within :data:`CONSECUTIVE_STEP_FACTOR` of the
+    nominal period (the 10th percentile of the steps: the median of a log with most pings dropped is a multiple of
+    it)."""
     dt = np.diff(np.asarray(t, float), axis=1)
-    if not dt.size:
-        return np.zeros((len(t), 0), bool)
-    short = dt <= CONSECUTIVE_STEP_FACTOR * np.percentile(dt, 10)
+    steps = real[:, 1:]
+    if not steps.any():
+        return np.zeros((len(t), max(t.shape[1] - 2, 0)), bool)
+    short = steps & (dt <= CONSECUTIVE_STEP_FACTOR * np.percentile(dt[steps], 10))
     return short[:, :-1] & short[:, 1:]
 
 
@@ -177,9 +179,9 @@ def _horizontal_sides(model, offset: float):
     inside, terms = model.terms(offset)
     if terms is None or inside.sum() < 2:
         return None
-    v, C, F, lever, A, _ = terms
-    a = without_window_fit(v + C, A).reshape(len(v), -1, 3)
-    b = without_window_fit(F + lever, A).reshape(len(v), -1, 3)
+    v, C, F, lever, A, fitted = terms
+    a = without_window_fit(v + C, A, fitted).reshape(len(v), -1, 3)
+    b = without_window_fit(F + lever, A, fitted).reshape(len(v), -1, 3)
     return a[..., 0] + 1j * a[..., 1], b[..., 0] + 1j * b[..., 1]
 
 
@@ -658,6 +660,16 @@ def turn_found(dvl, config, yaw: int, frame: dict, fixes: dict) -> str:
         return f"The DVL velocity points forward only turned: {dvl_turned}"
     where = f"{np.degrees(course):+.0f} deg from body x" if np.isfinite(course) else "no one way"
     return f"The DVL velocity points {where}, forward neither as read nor turned: either {dvl_turned}; or {imu_turned}"
+
+
+def yaws_to_try(dvl, config) -> list[int]:
+    """:data:`IMU_YAWS_DEG` in the order a search with the DVL velocity turned back about z tries them: the turn
+    that brings its mean direction (:func:`_course`) nearest body +x first (a DVL turned 270 deg is found on the first
+    search, not the third), as listed where it points no one way (an IMU turned, the velocity forward as read)."""
+    course = _course(dvl, config)
+    if not np.isfinite(course):
+        return list(IMU_YAWS_DEG)
+    return sorted(IMU_YAWS_DEG, key=lambda yaw: abs(np.angle(np.exp(1j * (course - np.deg2rad(yaw))))))
 
 
 def signed_turn(yaw: int) -> int:

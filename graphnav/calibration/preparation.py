@@ -19,7 +19,8 @@ A-KIT folders (:func:`graphnav.io.loaders.read_akit_mission`; the module docstri
    body velocity plus ``omega x l`` (:mod:`graphnav.calibration.reference`), after a coarse clock offset when the
    DVL stamps lie off the IMU span, or on it further off than that search reaches
    (:func:`graphnav.calibration.clock.align_stream_clocks`). Without a GT file the
-   DVL offset is that coarse offset or the vehicle's :data:`~graphnav.io.loaders.AKIT_DVL_TIME_OFFSET_S`.
+   DVL offset is that coarse offset or the vehicle's :data:`~graphnav.io.loaders.AKIT_DVL_TIME_OFFSET_S`, unless the
+   DVL clock fit puts the DVL clearly off it (:func:`_akit_dvl_offset_without_gt`: its offset then, warned and counted).
    A DVL that follows the GT at no offset (another frame, other units) is a DataError. A GT offset a configuration
    (or a written folder's) gives gets the GT clock search on the stamps it gives, as a log's does
    (:func:`_given_reference_clock`), then the fine search's judge: one the data contradict (either search) is used
@@ -101,7 +102,8 @@ def prepare(mission: Mission, *, imu_axis_signs=AUTO, gt_time_offset_s: float | 
             ones a configuration file set (``meta["prepare"]["given"]``), else detected with a warning.
         gt_time_offset_s: seconds added to the GT stamps, or ``"auto"``: the configured one, else estimated.
         dvl_time_offset_s: seconds added to the DVL stamps, or ``"auto"``: the configured one, else estimated
-            (without GT: the DVL's coarse clock offset, or the vehicle's default with a warning).
+            (without GT: the DVL's coarse clock offset, else the vehicle's default with a warning, or the DVL clock
+            fit's offset where it puts the DVL clearly off the default, warned about and counted).
         The three apply to A-KIT folders; other formats take ``"auto"`` only.
 
     Returns:
@@ -498,19 +500,15 @@ def _gt_clock(mission: Mission, meta: dict) -> tuple[GroundTruth, float]:
 def _prepare_akit_without_gt(mission: Mission, meta: dict, facts: dict, cfg: SensorConfig, imu: ImuData,
                              dvl_time_offset_s, coarse: float, judge: bool) -> Mission:
     """An A-KIT folder with IMU and DVL files only, as a vehicle has them: the DVL time offset given, its coarse
-    clock offset (``coarse``, s, 0 on the IMU span), or :data:`~graphnav.io.loaders.AKIT_DVL_TIME_OFFSET_S` for
-    ``"auto"`` (it cannot be estimated against a missing GT). A given offset a configuration file set (``judge``) is
-    judged against the DVL clock fit, as a log's is (:func:`_judge_given_dvl_clock`)."""
-    from graphnav.io.loaders import AKIT_DVL_TIME_OFFSET_S
+    clock offset (``coarse``, s, 0 on the IMU span), or for ``"auto"`` the vehicle's
+    :data:`~graphnav.io.loaders.AKIT_DVL_TIME_OFFSET_S` unless the DVL clock fit puts the DVL clearly off it
+    (:func:`_akit_dvl_offset_without_gt`; the fine estimate needs the missing GT). A given offset a configuration file
+    set (``judge``) is judged against the DVL clock fit, as a log's is (:func:`_judge_given_dvl_clock`)."""
     auto = _is_auto(dvl_time_offset_s)
     if auto and coarse:
         dvl_time_offset_s = coarse        # the clock estimate is all there is without GT (no fine reference)
     if _is_auto(dvl_time_offset_s):
-        dvl_time_offset_s = AKIT_DVL_TIME_OFFSET_S
-        warnings.warn(f"{meta.get('source')}: no GT file, so the DVL time offset cannot be estimated; using this "
-                      f"vehicle's {AKIT_DVL_TIME_OFFSET_S:+.2f} s (the mean of the estimates on the shared "
-                      "trajectories, spread 0.025 s); `graphnav calibrate --mode graph` estimates it without GT",
-                      RuntimeWarning, stacklevel=4)
+        dvl_time_offset_s = _akit_dvl_offset_without_gt(mission.dvl, imu, cfg, meta)
     cfg.dvl_time_offset_s = float(dvl_time_offset_s)
     cfg.gt_time_offset_s = 0.0
     dvl = dataclasses.replace(mission.dvl, t=mission.dvl.t + cfg.dvl_time_offset_s)
@@ -526,6 +524,55 @@ def _prepare_akit_without_gt(mission: Mission, meta: dict, facts: dict, cfg: Sen
     _note_akit(meta, cfg, dvl, None, {})
     meta["prepared"] = True
     return dataclasses.replace(mission, imu=imu, dvl=dvl, config=cfg, meta=meta)
+
+
+#: Without a GT file, the DVL clock fit replaces the vehicle's DVL time offset
+#: (:data:`~graphnav.io.loaders.AKIT_DVL_TIME_OFFSET_S`) where it is confident and puts the DVL further than this (s)
+#: and 3 of its sigmas from it (:func:`_akit_dvl_offset_without_gt`). Measured on the ten shared trajectories without
+#: GT (the fit within +-:data:`GIVEN_DVL_CLOCK_SEARCH_S` of +1.02 s), what it adds: -0.001..+0.033 s whole (sigmas
+#: 0.002-0.014 s), -0.034..+0.055 s on 200 s pieces (20), -0.027..+0.054 s on 120 s (30), -0.042..+0.130 s on 60 s
+#: (40; sigmas up to 0.077 s), all confident; the same 100 pieces with the DVL stamps 1.5-6 s late or early: all
+#: confident, as far from the truth as clean. Half the 1 s ping period: 3.8x the largest clean (a 60 s piece), a third
+#: of the least shift tried.
+AKIT_DVL_CLOCK_MARGIN_S = 0.5
+#: Why the pings of an A-KIT DVL placed by the clock fit, not at the vehicle's offset, are counted as doubted.
+AKIT_DVL_CLOCK_DOUBT = "DVL time offset from the DVL clock fit, off the vehicle's (no GT file to check it against)"
+
+
+def _akit_dvl_offset_without_gt(dvl: DvlData, imu: ImuData, cfg: SensorConfig, meta: dict) -> float:
+    """The DVL time offset (s, added to the stamps of ``dvl``) of an A-KIT folder without GT whose DVL is on the IMU
+    span within the fine search's reach: the vehicle's :data:`~graphnav.io.loaders.AKIT_DVL_TIME_OFFSET_S`, warned
+    about, unless the DVL clock fit (:func:`_dvl_clock_fit_near` at it: the DVL's velocity changes against the IMU's
+    accelerations) is confident and puts the DVL further than :data:`AKIT_DVL_CLOCK_MARGIN_S` and 3 sigmas from it.
+    Its offset is then used, warned about naming it and ``dvl_time_offset_s``, and the pings are counted as doubted
+    (:data:`AKIT_DVL_CLOCK_DOUBT`): a DVL file 2.5-3.5 s late was loaded that far off the IMU clock with only the
+    default's warning. A fit that cannot judge leaves the default, noted."""
+    from graphnav.io.loaders import AKIT_COLUMNS, AKIT_DVL_TIME_OFFSET_S
+    default = AKIT_DVL_TIME_OFFSET_S
+    try:
+        est = _dvl_clock_fit_near(imu, dataclasses.replace(dvl, t=dvl.t + default), cfg)
+    except DataError as err:
+        est, why = None, str(err)
+    if est is not None and not est.confident:
+        why = f"the IMU explains {est.peak:.2f} of the DVL's velocity changes at best"
+    if est is not None and est.confident and abs(est.offset_s) > max(AKIT_DVL_CLOCK_MARGIN_S, 3.0 * est.sigma_s):
+        offset = default + est.offset_s
+        found = dataclasses.replace(est, offset_s=offset)
+        text = (f"field '{AKIT_COLUMNS['DVL'][0]}': no GT file, and the DVL clock fit (its velocity changes against "
+                f"the IMU's accelerations) puts the DVL at {found.describe()}, {est.offset_s:+.2f} s from this "
+                f"vehicle's usual {default:+.2f} s: {offset:+.3f} s is used. Give dvl_time_offset_s (s added to the "
+                "DVL stamps) in a --config file if it is known")
+        say_doubted(meta, "dvl", str(dvl.source), text, AKIT_DVL_CLOCK_DOUBT, len(dvl.t), stacklevel=5)
+        meta.setdefault("clock_offsets", {})["dvl"] = found.to_dict()
+        return offset
+    if est is None or not est.confident:
+        add_note(meta, "dvl", f"the vehicle's DVL time offset {default:+.2f} s is not checked against the DVL clock "
+                 f"fit ({why})")
+    warnings.warn(f"{meta.get('source')}: no GT file, so the DVL time offset cannot be estimated; using this "
+                  f"vehicle's {default:+.2f} s (the mean of the estimates on the shared "
+                  "trajectories, spread 0.025 s); `graphnav calibrate --mode graph` estimates it without GT",
+                  RuntimeWarning, stacklevel=5)
+    return default
 
 
 def _axis_signs(mission: Mission, meta: dict, facts: dict, imu_axis_signs) -> tuple[np.ndarray, object]:
@@ -967,12 +1014,10 @@ def _say_clock_not_found(dvl: DvlData, meta: dict, form: str | None) -> None:
     not confident): a column map's (``form`` 'csv'), or any whose best offset lies off its stamps, warned about naming
     that offset (:func:`graphnav.calibration.clock.best_off_its_stamps`) and its pings counted
     (:data:`CLOCK_NOT_FOUND`); its note says why."""
-    from graphnav.calibration.clock import best_off_its_stamps
     est = meta.get("clock_offsets", {}).get("dvl")
     if est is None or est["confident"] or not (form == "csv" or est.get("off_its_stamps")):
         return
-    found = (f"DVL clock offset not found (the IMU's accelerations explain the DVL's velocity changes at no clear "
-             f"offset: best {est['peak']:.2f}, next {est['second_peak']:.2f}{best_off_its_stamps(est)})")
+    found = _clock_not_found_said(est)
     if meta.get(OFF_ITS_STAMPS):
         # judged at the stamps as read, its units and turn would blame the instruments for the clock
         raise DataError(f"{found}, and its velocity, which turns with the vehicle, is body-fixed only at its own best "
@@ -985,13 +1030,23 @@ def _say_clock_not_found(dvl: DvlData, meta: dict, form: str | None) -> None:
     count_doubted(meta, "dvl", CLOCK_NOT_FOUND, len(dvl.t))
 
 
+def _clock_not_found_said(est: dict) -> str:
+    """A DVL clock search's estimate ``est`` (``meta["clock_offsets"]["dvl"]``) that found no clear offset, said (with
+    its best offset where that lies off the stamps: :func:`graphnav.calibration.clock.best_off_its_stamps`)."""
+    from graphnav.calibration.clock import best_off_its_stamps
+    return (f"DVL clock offset not found (the IMU's accelerations explain the DVL's velocity changes at no clear "
+            f"offset: best {est['peak']:.2f}, next {est['second_peak']:.2f}{best_off_its_stamps(est)})")
+
+
 def _clock_searched(run, search, imu: ImuData, dvl: DvlData, config: SensorConfig, meta: dict,
                     declared: dict | None, fixes: dict, frame: dict):
     """``(run(imu), imu)``: the DVL clock search ``run`` with the gyro's scales tried (:func:`_with_the_gyro_tried`);
     a failure tried again in other units (:func:`_unit_finds_the_clock`) and with the velocity turned about z
     (:func:`_turn_finds_the_clock`, ``frame`` the IMU's axes judged), each a DataError where it finds the clock, else
-    the failure raised; a clock found is tried in other units where pings were refused for their speed. ``declared``:
-    the DVL velocity unit the IMU judges, ``fixes`` what the messages advise."""
+    the failure raised; a clock found is tried in other units where pings were refused for their speed, and a DVL on
+    the IMU span the search found no clear offset for is tried turned where its turn check saw a turn
+    (:func:`_turn_finds_the_clock_on_the_span`). ``declared``: the DVL velocity unit the IMU judges, ``fixes`` what
+    the messages advise."""
     try:
         found = _with_the_gyro_tried(run, search, imu, dvl, config, meta)
     except DataError as err:
@@ -999,6 +1054,7 @@ def _clock_searched(run, search, imu: ImuData, dvl: DvlData, config: SensorConfi
         _turn_finds_the_clock(err, search, imu, dvl, config, meta, fixes, frame, declared)
         raise
     _unit_finds_the_clock(None, search, found[1], dvl, config, meta, declared, fixes)
+    _turn_finds_the_clock_on_the_span(search, found[1], dvl, config, meta, fixes, frame, declared)
     return found
 
 
@@ -1174,21 +1230,25 @@ def _turn_finds_the_clock(err: DataError, search, imu: ImuData, dvl: DvlData, co
     """After the DVL clock search ``search(imu, meta, dvl) -> offset`` (s added to the ``dvl`` stamps) failed with
     ``err``: a DVL or an IMU mounted turned about z, in a frame the configuration does not say, leaves the DVL's
     velocity changes unexplained at every offset, and the search blamed the clock. It is tried with the DVL velocity
-    turned 90, 180 and 270 deg about z into the IMU's axes
-    (:data:`~graphnav.calibration.dvl_scale.IMU_YAWS_DEG`); the first that finds a clear clock is a DataError adding
+    turned 90, 180 and 270 deg about z into the IMU's axes (the turn its mean direction suggests first,
+    :func:`~graphnav.calibration.dvl_scale.yaws_to_try`); the first that finds a clear clock is a DataError adding
     to ``err`` the turn, the offset it gives and what to configure
     (:func:`~graphnav.calibration.dvl_scale.turn_found`: ``fixes`` for the DVL, ``frame`` for the IMU). The data are
     never read turned. A turn whose clock rests on the hole pings refused for their speed leave is not announced: the
     unit (``declared``, as :func:`_unit_finds_the_clock` takes it) is named instead (:func:`_refuse_a_clock_by_a_hole`).
-    Returns when no turn finds the clock (``err`` stands)."""
-    from graphnav.calibration.dvl_scale import IMU_YAWS_DEG, signed_turn, turn_about_z, turn_found
+    Returns when no turn finds the clock (``err`` stands), or (a DVL on the IMU span) when a turn finds it within half
+    a ping period of the stamps: they are on the IMU clock, and the DVL's turn check has judged the turn there."""
+    from graphnav.calibration.dvl_scale import signed_turn, turn_about_z, turn_found, yaws_to_try
     t, v = dvl_velocity_b(dvl, config)
-    for yaw in IMU_YAWS_DEG:
+    for yaw in yaws_to_try(dvl, config):
         turned = DvlData(t, *no_beams(len(t)), v @ turn_about_z(yaw), source=dvl.source)
         est = _trial_estimate(search, imu, turned, meta)
-        if est is None:
+        # on the IMU span the search keeps the stamps, with its estimate, where it finds no clear offset
+        if est is None or not est["confident"]:
             continue
         offset = est["offset_s"]
+        if abs(offset) < 0.5 * float(np.median(np.diff(t))):
+            return
         _refuse_a_clock_by_a_hole(err, offset, imu, dvl, meta, declared, fixes,
                                   f"a turn of {signed_turn(yaw):+d} deg about z finds the clock only at")
         raise DataError(f"{err.message}; but read as turned {_quarter_turn_said(imu, turned, offset, config, yaw)} "
@@ -1198,6 +1258,26 @@ def _turn_finds_the_clock(err: DataError, search, imu: ImuData, dvl: DvlData, co
                         f"z. {turn_found(dvl, config, yaw, frame, fixes)}. The data are not read turned: with the "
                         "mounting fixed, the clock search finds the offset itself", err.source, err.line,
                         err.field) from err
+
+
+def _turn_finds_the_clock_on_the_span(search, imu: ImuData, dvl: DvlData, config: SensorConfig, meta: dict,
+                                      fixes: dict, frame: dict, declared: dict | None) -> None:
+    """A DVL on the IMU span for which the clock search ``search(imu, meta, dvl) -> offset`` found no clear offset
+    (``meta["clock_offsets"]["dvl"]`` not confident) and whose turn check, at the stamps as read before the search
+    (:func:`_judge_dvl_against_imu`), saw its velocity turned about z or pointing sideways or backward
+    (:data:`~graphnav.calibration.dvl_scale.TURNED_DOUBT`, :data:`~graphnav.calibration.dvl_scale.SIDEWAYS_DOUBT`
+    counted): searched again with the velocity turned about z (:func:`_turn_finds_the_clock`), a DataError where a
+    turn finds the clock off the stamps, as off the span. A DVL turned 90, 180 or 270 deg and 400-1800 s late on a
+    5400 s simulated log (30-250 s on a 600 s one) was loaded that far off, its turn warned about at the wrong clock.
+    A clean log with the default beam noise finds no clear offset either, but its velocity points forward and fits
+    the IMU's axes: it is not searched three more times."""
+    from graphnav.calibration.dvl_scale import SIDEWAYS_DOUBT, TURNED_DOUBT
+    est = meta.get("clock_offsets", {}).get("dvl")
+    doubted = meta.get("streams", {}).get("dvl", {}).get("doubted", {})
+    if est is None or est["confident"] or not (TURNED_DOUBT in doubted or SIDEWAYS_DOUBT in doubted):
+        return
+    err = DataError(f"{_clock_not_found_said(est)} with the stamps on the IMU span", *_where(None, dvl, meta, fixes))
+    _turn_finds_the_clock(err, search, imu, dvl, config, meta, fixes, frame, declared)
 
 
 #: A turn left over after the quarter turn a clock was found with, deg, from which the turn is said to be "about" it.
@@ -1229,9 +1309,9 @@ def _quarter_turn_said(imu: ImuData, turned: DvlData, offset: float, config: Sen
 #: the GT, it adds -0.024..+0.076 s (200 s) and -0.016..+0.067 s (400 s) with sigmas of 0.004-0.019 s, up to 12 of
 #: them; 2.6x the largest, and under half the 1 s ping period the clock search moves a DVL by.
 GIVEN_DVL_CLOCK_FLOOR_S = 0.2
-#: Where a DVL declared on the IMU clock (``clock: imu``) has its given offset judged, the DVL clock fit searches this
-#: far either side of it, s: a configuration from another vehicle is a second or two off, and the clock search's
-#: +-300 s would cost ~10 s of CPU on an hour's log.
+#: Where a DVL declared on the IMU clock (``clock: imu``) has its given offset judged, or an A-KIT DVL without GT its
+#: vehicle's offset, the DVL clock fit searches this far either side of it, s: a configuration from another vehicle is a
+#: second or two off, and the clock search's +-300 s would cost ~10 s of CPU on an hour's log.
 GIVEN_DVL_CLOCK_SEARCH_S = 20.0
 
 
@@ -1243,7 +1323,6 @@ def _judge_given_dvl_clock(mission: Mission, shifted: DvlData, dvl: DvlData, met
     (:func:`_judge_given_offset`, :data:`GIVEN_DVL_CLOCK_FLOOR_S`) when they disagree. A DVL the clock search moved
     on (``dvl``'s stamps not ``shifted``'s) is not: the data decided, and a note names the file and key (the search's
     warning does not). A fit without a confident offset cannot judge it: noted."""
-    from graphnav.calibration.clock import estimate_dvl_clock_offset
     if dvl is not shifted and len(dvl.t) and dvl.t[0] != shifted.t[0]:
         moved = float(dvl.t[0] - shifted.t[0])
         add_note(meta, "dvl", f"{facts.get('given_by', {}).get('dvl_time_offset_s', 'the configuration')}: "
@@ -1253,8 +1332,7 @@ def _judge_given_dvl_clock(mission: Mission, shifted: DvlData, dvl: DvlData, met
     est = meta.get("clock_offsets", {}).get("dvl")
     if est is None:
         try:
-            est = estimate_dvl_clock_offset(mission.imu, shifted, mission.config,
-                                            search_s=(-GIVEN_DVL_CLOCK_SEARCH_S, GIVEN_DVL_CLOCK_SEARCH_S)).to_dict()
+            est = _dvl_clock_fit_near(mission.imu, shifted, mission.config).to_dict()
         except DataError as err:
             add_note(meta, "dvl", f"the configuration's dvl_time_offset_s is not judged ({err})")
             return
@@ -1264,6 +1342,14 @@ def _judge_given_dvl_clock(mission: Mission, shifted: DvlData, dvl: DvlData, met
         return
     _judge_given_offset(meta, facts, "dvl", given, given + est["offset_s"], est["sigma_s"], mission,
                         ", the DVL's velocity changes against the IMU's accelerations", GIVEN_DVL_CLOCK_FLOOR_S)
+
+
+def _dvl_clock_fit_near(imu: ImuData, dvl: DvlData, config: SensorConfig):
+    """The DVL clock fit (:func:`graphnav.calibration.clock.estimate_dvl_clock_offset`: the DVL's velocity changes
+    against the IMU's accelerations) within +-:data:`GIVEN_DVL_CLOCK_SEARCH_S` of the stamps of ``dvl``: its
+    ``offset_s`` is what the data add to them, s. DataError where the pings are too few."""
+    from graphnav.calibration.clock import estimate_dvl_clock_offset
+    return estimate_dvl_clock_offset(imu, dvl, config, search_s=(-GIVEN_DVL_CLOCK_SEARCH_S, GIVEN_DVL_CLOCK_SEARCH_S))
 
 
 def _given_dvl_offset(dvl: DvlData, depth: DepthData | None, offset_s: float, meta: dict):

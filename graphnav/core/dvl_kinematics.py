@@ -26,10 +26,12 @@ WINDOW_S = 20.0
 #: Fewest pings a window reaching past the IMU's ends keeps to be fitted by the clock search: its v0 and g0 are 6
 #: numbers, the straight line's too, and 6 pings give them 18.
 MIN_WINDOW_PINGS = 6
-#: A window whose pings leave a gap longer than this (s, a window's length) is not fitted: its ``int omega x v`` takes
-#: the velocity as the mean of the pings either side of the gap, which on a vehicle turning through a hole of refused
+#: No window spans a gap between pings longer than this (s, a window's length): its ``int omega x v`` would take the
+#: velocity as the mean of the pings either side of the gap, which on a vehicle turning through a hole of refused
 #: pings or an outage is no velocity it had (a 600 s log with 229 s of pings refused scored the true clock offset
-#: under a wrong one 252 s away). The ten A-KIT trajectories' pings are at most 1.0 s apart.
+#: under a wrong one 252 s away). The windows are cut at such gaps instead (:func:`window_rows`): a DVL losing
+#: bottom lock for 25 s every 42 s has 17 s of pings between its outages, which a window across the gaps left
+#: unfitted at every offset. The ten A-KIT trajectories' pings are at most 1.0 s apart.
 MAX_WINDOW_GAP_S = WINDOW_S
 #: Shortest overlap of the two logs at a candidate clock offset, s ...
 MIN_OVERLAP_S = 60.0
@@ -108,14 +110,51 @@ def without_window_fit(y: np.ndarray, A: np.ndarray, use: np.ndarray | None = No
     """``y`` (win, window, 3) less its least-squares fit per window by a constant (v0) and the gravity regressor
     ``A`` (win, window*3, 3; g0): the residual (win, window*3). ``use`` (win, window): the pings fitted (default
     all); ``A`` is then :func:`centred` over them, and the residual is zero at the others."""
+    use = None if use is None or use.all() else use
     y = y - y.mean(axis=1, keepdims=True) if use is None else centred(y, use)     # v0
     g0 = np.linalg.solve(np.einsum("wki,wkj->wij", A, A) + 1e-9 * np.eye(3),
                          np.einsum("wki,wk->wi", A, y.reshape(len(y), -1))[..., None])[..., 0]
     return y.reshape(len(y), -1) - np.einsum("wkj,wj->wk", A, g0)
 
 
+def window_rows(t: np.ndarray, window: int) -> tuple[np.ndarray, np.ndarray]:
+    """``(rows, real)``, (win, window): the indices into the ping stamps ``t`` (s) of each window of ``window`` pings,
+    and True at its pings. Windows run in order and are cut at every gap over :data:`MAX_WINDOW_GAP_S`: the pings
+    between two such gaps fill whole windows, and the rest of them (at least :data:`MIN_WINDOW_PINGS`) one more,
+    padded with its last ping (``real`` False there: no fit counts it). The pings after the last window of the log,
+    fewer than a window, are left out, as in a log without gaps, whose windows are its pings in runs of ``window``."""
+    starts = np.concatenate([[0], np.flatnonzero(np.diff(t) > MAX_WINDOW_GAP_S) + 1])
+    ends = np.append(starts[1:], len(t))
+    rows = []
+    for a, b in zip(starts, ends):
+        whole = (b - a) // window
+        rows += [np.arange(a + k * window, a + (k + 1) * window) for k in range(whole)]
+        rest = b - (a + whole * window)
+        if b < len(t) and rest >= min(MIN_WINDOW_PINGS, window):
+            rows.append(np.minimum(np.arange(b - rest, b - rest + window), b - 1))
+    rows = np.array(rows, int).reshape(-1, window)
+    return rows, np.concatenate([np.ones((len(rows), 1), bool), np.diff(rows, axis=1) > 0], axis=1)
+
+
+def gaps_said(t: np.ndarray, window: int) -> str:
+    """How the ping stamps ``t`` (s) are broken up for windows of ``window`` pings: the gaps over
+    :data:`MAX_WINDOW_GAP_S` (how many, how long, how far apart) and the windows the pings between them fill."""
+    dt = np.diff(t)
+    gap = np.flatnonzero(dt > MAX_WINDOW_GAP_S)
+    rows, _ = window_rows(t, window)
+    text = (f"{len(t)} pings with a velocity over {t[-1] - t[0]:.0f} s, with {len(gap)} gap(s) over "
+            f"{MAX_WINDOW_GAP_S:g} s without one")
+    if len(gap):
+        lo, hi = np.min(dt[gap]), np.max(dt[gap])
+        text += f" ({lo:.0f} s long" if round(lo) == round(hi) else f" ({lo:.0f}-{hi:.0f} s long"
+        text += f", starting every {np.median(np.diff(t[gap])):.0f} s)" if len(gap) > 1 else ")"
+    return text + (f", leaving {len(rows)} window(s) between them with at least {min(MIN_WINDOW_PINGS, window)} "
+                   f"pings (of the {window} a {WINDOW_S:g} s window holds)")
+
+
 class _WindowModel:
-    """The DVL pings in windows of :data:`WINDOW_PINGS`; for a candidate offset, the residual of
+    """The DVL pings in windows of :data:`WINDOW_PINGS` (cut at gaps, :func:`window_rows`); for a candidate offset,
+    the residual of
 
         v_j = v0 + int f_b dt + (int R^T dt) g0 - int omega x v dt - omega_j x l       (per window: v0, g0)
 
@@ -125,22 +164,23 @@ class _WindowModel:
     DVL checks', whose offsets keep the DVL on the IMU), or those inside when at least :data:`MIN_WINDOW_PINGS`
     (``trim`` True, the clock search's: a window reaching past the IMU's end by a ping keeps its other pings, so
     offsets a few seconds apart score nearly the same pings and none wins by leaving out a window it explains
-    badly). A window across a gap of more than :data:`MAX_WINDOW_GAP_S` is fitted at no offset."""
+    badly). No window spans a gap of more than :data:`MAX_WINDOW_GAP_S`; the padding of a window cut short by one
+    (``real`` False) is fitted at no offset."""
 
     def __init__(self, imu: ImuIntegrals, t_dvl: np.ndarray, v: np.ndarray, lever_arm_b: np.ndarray,
                  window: int, trim: bool = False):
         self.imu, self.lever, self.trim = imu, lever_arm_b, trim
-        n_win = len(t_dvl) // window
-        self.t = t_dvl[:n_win * window].reshape(n_win, window)
-        self.v = v[:n_win * window].reshape(n_win, window, 3)
+        rows, self.real = window_rows(t_dvl, window)
+        self.t, self.v = t_dvl[rows], v[rows]
         self.v_mid = 0.5 * (self.v[:, 1:] + self.v[:, :-1])
         self.window = window
-        self.whole = np.all(np.diff(self.t, axis=1) <= MAX_WINDOW_GAP_S, axis=1)
         # the fit without IMU: v = v0 + c t per window (6 parameters, as the model's v0, g0)
         tc = self.t - self.t.mean(axis=1, keepdims=True)
         X = np.stack([np.ones_like(tc), tc], axis=-1)                   # (n_win, window, 2)
         beta = np.einsum("wij,wjk->wik", np.linalg.pinv(X), self.v)
         self.sse_null_w = np.sum((self.v - X @ beta) ** 2, axis=(1, 2))   # per window
+        padded = ~self.real.all(axis=1)
+        self.sse_null_w[padded] = _line_sse(self.t[padded], self.v[padded], self.real[padded])
 
     def thinned(self, max_windows: int) -> "_WindowModel":
         """The same model on at most ``max_windows`` windows spread over the log (for the coarse scan of a long
@@ -149,15 +189,15 @@ class _WindowModel:
         out = object.__new__(_WindowModel)
         out.imu, out.lever, out.window, out.trim = self.imu, self.lever, self.window, self.trim
         out.t, out.v, out.v_mid, out.sse_null_w = self.t[keep], self.v[keep], self.v_mid[keep], self.sse_null_w[keep]
-        out.whole = self.whole[keep]
+        out.real = self.real[keep]
         return out
 
     def pings(self, offset: float) -> np.ndarray:
         """(win, window) True at the pings fitted at ``offset`` s: those inside the IMU span, of the windows keeping
-        enough (class docstring)."""
+        enough (class docstring), less a window's padding (:func:`window_rows`)."""
         t = self.t + offset
-        inside = (t >= self.imu.t[0]) & (t <= self.imu.t[-1]) & self.whole[:, None]
-        return with_enough_pings(inside if self.trim else inside & inside.all(axis=1, keepdims=True))
+        inside = (t >= self.imu.t[0]) & (t <= self.imu.t[-1])
+        return with_enough_pings((inside if self.trim else inside & inside.all(axis=1, keepdims=True)) & self.real)
 
     def imu_at(self, offset: float, use: np.ndarray | None = None):
         """``(use, windows, ints)`` at ``offset`` s: the pings ``use`` (win, window; default :meth:`pings`), True at
@@ -198,7 +238,7 @@ class _WindowModel:
         if terms is None:
             return out, windows
         v, C, F, lever, A, fitted = terms
-        r = without_window_fit(v - lever - F + C, A, None if fitted.all() else fitted)
+        r = without_window_fit(v - lever - F + C, A, fitted)
         out[windows] = np.sum(r ** 2, axis=1)
         return out, windows
 
@@ -207,10 +247,7 @@ class _WindowModel:
         out = self.sse_null_w.copy()
         part = use.any(axis=1) & ~use.all(axis=1)
         if part.any():
-            u = use[part]
-            tc, vc = centred(self.t[part], u), centred(self.v[part], u)
-            slope = np.einsum("wk,wki->wi", tc, vc) / np.sum(tc ** 2, axis=1, keepdims=True)
-            out[part] = np.sum((vc - tc[..., None] * slope[:, None]) ** 2 * u[..., None], axis=(1, 2))
+            out[part] = _line_sse(self.t[part], self.v[part], use[part])
         return out
 
     def score(self, offset: float, use: np.ndarray | None = None, at=None) -> tuple[float, float, int]:
@@ -224,6 +261,14 @@ class _WindowModel:
         null = float(np.sum(self.null_sse(use)[windows]))
         total = float(np.sum(sse[windows]))
         return 1.0 - total / max(null, 1e-12), total, int(windows.sum())
+
+
+def _line_sse(t: np.ndarray, v: np.ndarray, use: np.ndarray) -> np.ndarray:
+    """The SSE (win,) of a straight line fitted per window to the velocity ``v`` (win, window, 3; m/s) at stamps ``t``
+    (win, window; s) over the pings ``use`` (win, window)."""
+    tc, vc = centred(t, use), centred(v, use)
+    slope = np.einsum("wk,wki->wi", tc, vc) / np.sum(tc ** 2, axis=1, keepdims=True)
+    return np.sum((vc - tc[..., None] * slope[:, None]) ** 2 * use[..., None], axis=(1, 2))
 
 
 def with_enough_pings(use: np.ndarray) -> np.ndarray:

@@ -236,19 +236,20 @@ def course_spread_ratio(v: np.ndarray, t_imu: np.ndarray, omega_b: np.ndarray) -
     return float((1.0 - abs(np.mean(np.exp(1j * np.arctan2(v[moving, 1], v[moving, 0]))))) / heading)
 
 
-def _kinematic_residuals(imu, ints, t: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
-    """``(L, K)`` (win, window*3) of the clock model's windows at offset 0 for the body-frame velocity ``v`` (M,3),
-    m/s: the part of its residual that the velocity makes (``v + int omega x v``, less its fit per window) and the
-    part the IMU makes (``int f_b``, less its fit); the residual is ``L - K``, linear in ``v``. None under two
-    windows."""
+def _kinematic_residuals(imu, ints, t: np.ndarray, v: np.ndarray
+                         ) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+    """``(L, K, fitted)`` of the clock model's windows at offset 0 for the body-frame velocity ``v`` (M,3), m/s: the
+    part of its residual that the velocity makes (``v + int omega x v``, less its fit per window) and the part the IMU
+    makes (``int f_b``, less its fit), (win, window*3), zero at a window's padding; the residual is ``L - K``, linear
+    in ``v``; and the pings fitted (win, window). None under two windows."""
     from graphnav.core.dvl_kinematics import dvl_window_model, without_window_fit
     from graphnav.core.mission import DvlData, no_beams
     model, _ = dvl_window_model(imu, DvlData(t, *no_beams(len(t)), v), ints=ints)
     inside, terms = model.terms(0.0)
     if terms is None or inside.sum() < 2:
         return None
-    u, C, F, lever, A, _ = terms                  # every window whole: on one clock, offset 0
-    return without_window_fit(u + C, A), without_window_fit(F + lever, A)
+    u, C, F, lever, A, fitted = terms             # every window whole but its padding: on one clock, offset 0
+    return without_window_fit(u + C, A, fitted), without_window_fit(F + lever, A, fitted), fitted
 
 
 def kinematics_ratio(t_dvl: np.ndarray, v: np.ndarray, t_imu: np.ndarray, f_b: np.ndarray, omega_b: np.ndarray
@@ -287,8 +288,8 @@ def _kinematics(t_dvl: np.ndarray, v: np.ndarray, t_imu: np.ndarray, f_b: np.nda
         return float("nan"), float("nan")
     if body is None:
         return float("nan"), float("nan")
-    L, K = body
-    windows, free = len(L), L.size - 7 * len(L)
+    L, K, fitted = body
+    windows, free = len(L), 3 * np.count_nonzero(fitted) - 7 * len(L)
     yaw = np.interp(t, ints.t, ints.W[:, 2])
     earth = np.inf
     for sign in (1.0, -1.0):
@@ -316,7 +317,7 @@ def _readings(model, offset: float, use: np.ndarray | None = None) -> tuple[np.n
     body, earth = np.full(len(model.t), np.nan), np.full(len(model.t), np.nan)
     if terms is None:
         return body, earth
-    v, _, F, lever, A, _ = terms
+    v, _, F, lever, A, fitted = terms
     W, n = at[2][1], len(v)
     zero, yaw = 0 * v[..., 0], W[..., 2]
     readings = [v, np.stack([zero, zero, v[..., 2]], axis=-1)]
@@ -329,8 +330,8 @@ def _readings(model, offset: float, use: np.ndarray | None = None) -> tuple[np.n
     x = np.concatenate(readings)
     rot = np.cross(np.tile(np.diff(W, axis=1), (6, 1, 1)), 0.5 * (x[:, 1:] + x[:, :-1]))
     x = x + np.concatenate([0 * x[:, :1], np.cumsum(rot, axis=1)], axis=1)
-    r = without_window_fit(x, np.tile(A, (6, 1, 1))).reshape(6, n, -1)
-    r[:2] -= without_window_fit(F + lever, A)
+    r = without_window_fit(x, np.tile(A, (6, 1, 1)), np.tile(fitted, (6, 1))).reshape(6, n, -1)
+    r[:2] -= without_window_fit(F + lever, A, fitted)
     body[windows] = np.sum(r[0] ** 2, axis=1)
     # |cos psi r_u + sin psi r_Ju + r_z|^2 per window at each heading psi, either sign of the gyro's z
     c, s, z = np.cos(_HEADINGS), np.sin(_HEADINGS), r[1]
@@ -389,7 +390,8 @@ def _own_offsets(t_dvl: np.ndarray, v: np.ndarray, t_imu: np.ndarray, f_b: np.nd
     windows = int(fitted.sum())
     if windows < 2:
         return nan
-    limit = BODY_KINEMATICS_RATIO + (windows + 3.0 * np.sqrt(2.0 * windows)) / (windows * (3 * model.window - 7))
+    free = 3 * np.count_nonzero(common[fitted]) - 7 * windows       # the pings fitted, a window's padding not
+    limit = BODY_KINEMATICS_RATIO + (windows + 3.0 * np.sqrt(2.0 * windows)) / free
     return float(np.sum(body[fitted]) / max(np.sum(earth[fitted]), 1e-300)), float(limit), *offsets
 
 

@@ -111,6 +111,7 @@ from graphnav.core.mission import (
 )
 from graphnav.core.rotations import euler_to_C_b_n
 from graphnav.core.screening import (
+    MAX_REFUSED_FRACTION,
     NO_BOTTOM_LOCK,
     ZERO_RESOLUTION,
     beams_out_of_range,
@@ -1157,13 +1158,40 @@ def _declared_unit_advice(meta: dict, imu, t: np.ndarray, v: np.ndarray, cfg: Se
     a column map's without one: the unit its loader took, :func:`graphnav.io.units.taken_velocity_unit`) are refused
     and a smaller unit explains them (:func:`graphnav.io.dvl_frame.smaller_unit_advice`, the body-frame velocity ``v``
     (M,3, m/s) at ``t`` (s) against ``imu``): a unit 10x too large, or knots read as m/s, puts a vehicle beyond its
-    envelope, where the refusal's "check the units" does not say which; else ``{}``."""
+    envelope, where the refusal's "check the units" does not say which; else ``{}``. No unit is advised where the
+    pings refused for something a unit does not change (no valid beam, bottom lock lost) are over half the stream by
+    themselves: the refusal then says so (:func:`_refused_whatever_the_unit`)."""
     from graphnav.io.units import judged_velocity_unit
     declared = judged_velocity_unit(meta)
     if not declared or not over_refused_limit(meta, "dvl"):
         return {}
+    whatever = _refused_whatever_the_unit(meta)
+    if whatever:
+        return {"dvl": whatever}
     from graphnav.io.dvl_frame import smaller_unit_advice
     advice = smaller_unit_advice(t, v, declared, imu.t, imu.f_b, imu.omega_b, cfg.dvl)
     return {"dvl": advice} if advice else {}
+
+
+def _refused_whatever_the_unit(meta: dict) -> str | None:
+    """What to check when the DVL pings refused for reasons a velocity unit does not change (all but the vehicle's
+    envelope and a beam beyond its speed) are over :data:`~graphnav.core.screening.MAX_REFUSED_FRACTION` of the
+    stream by themselves (``meta["streams"]["dvl"]``), naming them and the few a unit could; else None. A DVL with
+    over half its pings without a valid beam and a few speed spikes was advised knots, in which as many are refused."""
+    entry = meta["streams"]["dvl"]
+    by_speed = {r: n for r, n in entry["refused"].items() if r.startswith("outside the envelope") or "beam beyond" in r}
+    others = {r: n for r, n in entry["refused"].items() if r not in by_speed}
+    if not sum(others.values()) > MAX_REFUSED_FRACTION * entry["read"]:
+        return None
+    main = max(others, key=others.get)
+    said = (f"{sum(others.values())} of the {entry['read']} pings are refused for what no velocity unit changes "
+            f"({', '.join(r.split(' (')[0] for r in sorted(others, key=others.get, reverse=True))})")
+    if by_speed:
+        said += f", over {MAX_REFUSED_FRACTION:.0%} without the {sum(by_speed.values())} beyond the vehicle's envelope"
+    what = ("that the DVL kept bottom lock (altitude within its range) and that its velocity is read from the right "
+            "columns"
+            if main.startswith("no valid beam") or main == NO_BOTTOM_LOCK else
+            "the column map and the configuration's sensor ranges")
+    return f"{said}: check {what}"
 
 
