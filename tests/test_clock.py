@@ -512,3 +512,80 @@ def test_an_akit_dvl_a_minute_off_on_the_imu_span_is_found(akit_dir, tmp_path, w
         m = load_akit(dst, imu_axis_signs=(1, -1, 1))
     period = float(np.median(np.diff(ref.dvl.t)))
     np.testing.assert_allclose(m.dvl.t, ref.dvl.t, atol=0.02 if with_gt else 0.1 * period)
+
+
+def test_an_offset_off_the_stamps_is_taken_under_the_clear_peak_only_where_it_stands_out():
+    """The rule a DVL on the IMU span whose peak is not clear is judged by: its best offset is taken where it lies
+    further than PEAK_EXCLUSION_S from the stamps, explains STAMPS_DEFICIT more than they do as read, and
+    OFF_STAMPS_MIN_GAP more than any other offset; named only where it stands out of the stamps alone."""
+    from graphnav.calibration.clock import ClockOffset, best_off_its_stamps
+
+    def est(offset, peak, second, stamped):
+        return ClockOffset(offset, 0.15, peak, second, offset, 0.03, 600.0, 600, stamped=stamped)
+    assert est(-59.9, 0.20, 0.07, -0.31).confident and not est(-59.9, 0.20, 0.07, -0.31).clear
+    assert not est(-59.9, 0.20, 0.07, float("nan")).confident            # the stamps not measured: as before
+    assert not est(-4.0, 0.20, 0.07, -0.31).confident                    # within PEAK_EXCLUSION_S of the stamps
+    assert not est(-59.9, 0.20, 0.07, 0.15).off_its_stamps               # the stamps explain nearly as much
+    assert not est(-145.2, -2.41, 0.0, -3.31).off_its_stamps             # explained nowhere (a DVL mounted turned)
+    weak = est(-29.9, 0.16, 0.14, -0.10)                                 # off the stamps, but not standing out
+    assert weak.off_its_stamps and not weak.confident
+    assert ("the IMU explains -0.10 of the DVL's velocity changes at its stamps as read and 0.16 at the best offset, "
+            "-29.900 s, 0.02 more than at any other") in best_off_its_stamps(weak.to_dict())
+    assert "give dvl_time_offset_s -29.900" in best_off_its_stamps(weak.to_dict())
+    assert best_off_its_stamps(est(97.3, 0.05, 0.048, 0.047).to_dict()) == ""
+    # the stamps' score is kept only where measured: clean logs' estimates read as before
+    assert "stamped" not in est(0.1, 0.3, 0.05, float("nan")).to_dict()
+
+
+@pytest.fixture(scope="module")
+def noisy():
+    """200 s simulated missions with 0.03 m/s beam noise, whose clock the search calls unclear at every offset:
+    seed 3 peaks at 0.20 explained (residual ratio 1.18), 0.06 elsewhere; seed 0 at 0.16, 0.14 elsewhere."""
+    cfg = SensorConfig()
+    cfg.dvl = dataclasses.replace(cfg.dvl, beam_noise_std=0.03)
+    return {seed: simulate_mission(200.0, seed=seed, config=cfg) for seed in (3, 0)}
+
+
+@pytest.mark.parametrize("late_s", [30.0, 60.0])
+def test_a_noisier_dvl_late_on_the_imu_span_is_taken_off_its_stamps_though_its_peak_is_not_clear(noisy, tmp_path,
+                                                                                                late_s):
+    """0.03 m/s beams 30 or 60 s late (``clock: auto``): the search found the offset (-30.25 / -60.25 s, 0.20
+    explained, -0.09 / -0.13 at the stamps, 0.06 anywhere else) but under the clear peak, so the stamps were kept as
+    read and the DVL fused that far off. Now taken, with a warning saying how weakly, and its pings counted."""
+    from graphnav.calibration.clock import CLOCK_TAKEN_UNCLEAR
+    sim = noisy[3]
+    config = _beams_log(sim, tmp_path / "late", late_s, "auto")
+    with pytest.warns(RuntimeWarning, match=rf"DVL clock offset -{late_s:.0f}\.\d+ s .* added to the DVL stamps, "
+                                            r"though under the clear peak .*: the stamps as read explain 0\.\d\d less"):
+        m = load_mission(config.parent, config)
+    np.testing.assert_allclose(m.dvl.t, sim.dvl.t, atol=0.5)
+    assert m.meta["streams"]["dvl"]["doubted"] == {CLOCK_TAKEN_UNCLEAR: len(sim.dvl.t)}
+    assert m.config.dvl_time_offset_s == pytest.approx(-late_s, abs=0.5)
+
+
+def test_a_noisier_dvl_on_its_right_stamps_is_neither_moved_nor_told_of_another_offset(noisy, tmp_path):
+    """The two logs above on the IMU clock: kept as read with the clock's warning as before, no offset named."""
+    from graphnav.calibration.preparation import CLOCK_NOT_FOUND
+    for seed, sim in noisy.items():
+        config = _beams_log(sim, tmp_path / f"right{seed}", 0.0, "auto")
+        with pytest.warns(RuntimeWarning, match="DVL clock offset not found") as said:
+            m = load_mission(config.parent, config)
+        np.testing.assert_array_equal(m.dvl.t, sim.dvl.t)
+        assert m.meta["streams"]["dvl"]["doubted"] == {CLOCK_NOT_FOUND: len(sim.dvl.t)}
+        assert not [w for w in said if "best offset" in str(w.message) or "under the clear peak" in str(w.message)]
+
+
+def test_a_noisier_dvl_off_its_stamps_whose_offset_does_not_stand_out_is_told_the_offset(noisy, tmp_path):
+    """Seed 0's log 30 s late: its best offset (-29.94 s, 0.16 against -0.10 at the stamps) beats every other offset
+    by 0.02 only, so it is not taken; the counted warning, which said only that no clear offset was found, now says
+    the stamps look off and names that offset and the key to give it with."""
+    from graphnav.calibration.preparation import CLOCK_NOT_FOUND
+    sim = noisy[0]
+    config = _beams_log(sim, tmp_path / "late", 30.0, "auto")
+    with pytest.warns(RuntimeWarning, match=r"DVL clock offset not found .*explains -0\.\d\d of the DVL's velocity "
+                                            r"changes at its stamps as read and 0\.16 at the best offset, "
+                                            r"-29\.9\d\d s, 0\.02 more .* the DVL clock looks off.*: give "
+                                            r"dvl_time_offset_s -29\.9\d\d"):
+        m = load_mission(config.parent, config)
+    np.testing.assert_allclose(m.dvl.t, sim.dvl.t + 30.0, atol=1e-6)
+    assert m.meta["streams"]["dvl"]["doubted"] == {CLOCK_NOT_FOUND: len(sim.dvl.t)}

@@ -1187,10 +1187,13 @@ def test_a_dvl_clock_the_search_cannot_find_is_warned_about_and_counted(sim, tmp
 
 
 def test_a_slow_vehicle_kept_at_its_own_offset_whose_clock_the_search_cannot_find_is_refused_naming_the_clock(
-        sim, tmp_path):
+        sim, tmp_path, monkeypatch):
     """The vehicle above with 0.03 m/s of noise, 7.3 s late (``clock: auto``): refused as earth-fixed before, told to
     declare NED for a body log. Kept as body only at its own best offset, its clock not found by the search, it is
-    refused naming the clock; judged at its stamps as read, it was blamed on an IMU turned 270 deg."""
+    refused naming the clock; judged at its stamps as read, it was blamed on an IMU turned 270 deg. (The search now
+    takes its offset off the stamps, under the clear peak: the next test; here that rule is kept from firing.)"""
+    from graphnav.calibration import clock
+    monkeypatch.setattr(clock, "OFF_STAMPS_MIN_GAP", 1.0)
     m, _, _ = sim
     t_imu, f_b, omega_b, t, v_b = _slow_in_current(0, 0.35, 0.7, 200.0, 0.03)
     slow = dataclasses.replace(m, imu=dataclasses.replace(m.imu, t=t_imu, f_b=f_b, omega_b=omega_b))
@@ -1199,6 +1202,20 @@ def test_a_slow_vehicle_kept_at_its_own_offset_whose_clock_the_search_cannot_fin
         _load(_folder(tmp_path, (slow, t, None), v_b, {"clock": "auto"}, shift=7.3))
     assert err.value.source.endswith("dvl.csv") and err.value.field == "vx, vy, vz"
     assert "declare csv_columns.dvl.frame" not in str(err.value)
+
+def test_a_slow_vehicle_kept_at_its_own_offset_loads_at_the_clock_found_off_its_stamps(sim, tmp_path):
+    """The same log: the search's peak (0.16 explained at -7.20 s, 0.00 at any other offset further than 5 s, -0.12
+    at the stamps) is under the clear one, so it was refused as above; taken off the stamps, the log loads at the
+    clock found, with both doubts (the frame, the clock) warned about and counted."""
+    from graphnav.calibration.clock import CLOCK_TAKEN_UNCLEAR
+    from graphnav.io.dvl_frame import FRAME_DOUBT
+    m, _, _ = sim
+    t_imu, f_b, omega_b, t, v_b = _slow_in_current(0, 0.35, 0.7, 200.0, 0.03)
+    slow = dataclasses.replace(m, imu=dataclasses.replace(m.imu, t=t_imu, f_b=f_b, omega_b=omega_b))
+    with pytest.warns(RuntimeWarning, match=r"DVL clock offset -7\.\d+ s .* though under the clear peak"):
+        got = _load(_folder(tmp_path, (slow, t, None), v_b, {"clock": "auto"}, shift=7.3))
+    assert got.config.dvl_time_offset_s == pytest.approx(-7.3, abs=0.2)
+    assert got.meta["streams"]["dvl"]["doubted"] == {FRAME_DOUBT: len(t), CLOCK_TAKEN_UNCLEAR: len(t)}
 
 
 @pytest.mark.parametrize("turn", [90.0, 180.0, 270.0])

@@ -16,9 +16,11 @@ a grid of half a DVL period (coarser for long logs), then refines the best by mi
 Quality: the explained fraction at the peak and its sharpness (residual at the best offset further than
 :data:`PEAK_EXCLUSION_S` over the residual at the peak). A log without
 velocity changes (constant speed and heading) has no signal: the estimate is then not confident, and
-:func:`align_stream_clocks` says so. This coarse offset is a *clock* offset; the sub-second DVL time offset
-against a reference (:func:`graphnav.calibration.reference.estimate_dvl_time_offset` in the A-KIT loader,
-``graphnav calibrate`` without GT) is the fine calibration that runs after it.
+:func:`align_stream_clocks` says so. A DVL on the IMU span whose peak is not clear (a noisy DVL) is also scored at its
+stamps as read: a best offset far from them that explains clearly more than they do and than any other offset is
+taken (:data:`STAMPS_DEFICIT`, :data:`OFF_STAMPS_MIN_GAP`). This coarse offset is a *clock* offset; the sub-second
+DVL time offset against a reference (:func:`graphnav.calibration.reference.estimate_dvl_time_offset` in the A-KIT
+loader, ``graphnav calibrate`` without GT) is the fine calibration that runs after it.
 
 A GT on a clock of its own (:func:`estimate_gt_clock_offset`, :func:`align_gt_clock`) is found from the angles the
 vehicle turned through: the GT attitude's over each GT interval against the norm of the gyro's integral, which no
@@ -37,7 +39,7 @@ from graphnav.calibration.reference import _sigma_from_curvature
 from graphnav.core.dvl_kinematics import (COARSE_MAX_WINDOWS, MAX_WINDOW_GAP_S, MIN_OVERLAP_S, dvl_window_model,
                                           gaps_said, offset_grid, search_overlap, with_enough_pings)
 from graphnav.core.errors import DataError
-from graphnav.core.streams import add_note, set_span
+from graphnav.core.streams import add_note, count_doubted, set_span
 from graphnav.core.timeseries import cumulative_integral, interp_rows, on_the_imu_clock, overlap_text
 
 #: When the DVL already overlaps the IMU, :func:`align_stream_clocks` searches offsets within +- this first, s
@@ -54,6 +56,26 @@ PEAK_EXCLUSION_S = 5.0
 #: ratio 1.01-1.2 (refused).
 MIN_PEAK = 0.2
 MIN_SSE_RATIO = 1.2
+#: A DVL on the IMU span whose best offset lies further than PEAK_EXCLUSION_S from its stamps, where the IMU explains
+#: at least this much more of its velocity changes than at the stamps as read (:func:`explained_as_stamped`), is off its
+#: stamps, whether or not the peak is clear (:attr:`ClockOffset.off_its_stamps`). Measured on simulated missions with
+#: 0.02, 0.03 and 0.042 m/s beam noise at their right stamps (309 logs of 60-1800 s): the best offset lay further than
+#: 5 s in 21, beating the stamps by 0.057 at most (200 s, seed 36: a manoeuvre repeated 83 s on), 0.031 in the others;
+#: 30-120 s late (99 logs of 200-1800 s, 72 not clear), the stamps explain -0.78 to 0.03, the right offset 0.074 to
+#: 0.68 more.
+STAMPS_DEFICIT = 0.1
+#: ... and where it explains at least this much there: the late logs' right offsets explained 0.051-0.32; a bag's DVL
+#: mounted turned 45 deg with no mounting declared, on its right stamps, -2.41 at its best offset (145 s off) and -3.31
+#: at its stamps: the IMU explains it nowhere, so no offset is named.
+OFF_STAMPS_MIN_PEAK = 0.05
+#: Such an offset is taken (:attr:`ClockOffset.confident`) where it also explains this much more than the best offset
+#: further than PEAK_EXCLUSION_S from it, though its peak is under MIN_PEAK or MIN_SSE_RATIO. Of the 72 late logs
+#: above, the 4 whose best offset was wrong beat the next by 0.003-0.009, the 68 right ones by 0.005-0.165: 51 taken,
+#: 13 named (beating the stamps by STAMPS_DEFICIT, not the others by this); the clean log above beat the next by 0.043.
+OFF_STAMPS_MIN_GAP = 0.05
+#: Why the pings of a DVL are counted whose clock offset was taken off its stamps under the clear peak
+#: (:attr:`ClockOffset.off_its_stamps`).
+CLOCK_TAKEN_UNCLEAR = "DVL clock offset taken under the clear peak: its stamps as read explain it far less"
 #: An applied DVL clock offset with a larger sigma (s) says the data barely fix it: a tenth of a 1 s ping period.
 #: Simulated 60-200 s missions (37 s injected, four seeds): 0.06-0.32 s off with sigmas 0.13-0.33 s (the five
 #: confident 0.13-0.26 s off, within 1.6 sigma); a 400 s one with 0.01 m/s beam noise 0.002 s off, sigma 0.055 s;
@@ -76,6 +98,8 @@ class ClockOffset:
         overlap_s: overlap of the two logs at the offset, s.
         n: DVL (GT) intervals used by the fine fit.
         explains: what the IMU explains, for :meth:`describe`.
+        stamped: the same at the stamps as read (:func:`explained_as_stamped`), for a DVL on the IMU span whose peak
+            is not clear; NaN where not measured.
     """
 
     offset_s: float
@@ -87,6 +111,7 @@ class ClockOffset:
     overlap_s: float
     n: int
     explains: str = "the DVL's velocity changes"
+    stamped: float = float("nan")
 
     @property
     def sharpness(self) -> float:
@@ -94,17 +119,34 @@ class ClockOffset:
         return (1.0 - self.second_peak) / max(1.0 - self.peak, 1e-9)
 
     @property
-    def confident(self) -> bool:
+    def clear(self) -> bool:
+        """The peak stands out of the residuals at every other offset (:data:`MIN_PEAK`, :data:`MIN_SSE_RATIO`)."""
         return self.peak >= MIN_PEAK and self.sharpness >= MIN_SSE_RATIO
 
+    @property
+    def off_its_stamps(self) -> bool:
+        """The offset lies further than :data:`PEAK_EXCLUSION_S` from the stamps and explains :data:`STAMPS_DEFICIT`
+        more than they do as read, and :data:`OFF_STAMPS_MIN_PEAK` at least (False where ``stamped`` was not
+        measured)."""
+        return (abs(self.offset_s) > PEAK_EXCLUSION_S and self.peak >= OFF_STAMPS_MIN_PEAK
+                and self.peak - self.stamped >= STAMPS_DEFICIT)
+
+    @property
+    def confident(self) -> bool:
+        """A clear peak, or one off the stamps that also beats every other offset by :data:`OFF_STAMPS_MIN_GAP`."""
+        return self.clear or self.off_its_stamps and self.peak - self.second_peak >= OFF_STAMPS_MIN_GAP
+
     def describe(self) -> str:
+        stamped = f", {self.stamped:.2f} at the stamps as read" if np.isfinite(self.stamped) else ""
         return (f"{self.offset_s:+.3f} s (sigma {self.sigma_s:.3f} s; IMU explains {self.peak:.2f} of "
-                f"{self.explains} there, {self.second_peak:.2f} at the next best offset; overlap "
+                f"{self.explains} there, {self.second_peak:.2f} at the next best offset{stamped}; overlap "
                 f"{self.overlap_s:.0f} s)")
 
     def to_dict(self) -> dict:
-        out = {k: v for k, v in dataclasses.asdict(self).items() if k != "explains"}
-        return {**out, "sharpness": self.sharpness, "confident": self.confident}
+        out = {k: v for k, v in dataclasses.asdict(self).items()
+               if k != "explains" and not (k == "stamped" and not np.isfinite(v))}
+        return {**out, "sharpness": self.sharpness, "confident": self.confident,
+                **({"off_its_stamps": self.off_its_stamps} if "stamped" in out else {})}
 
 
 # ------------------------------------------------------------------------------------------------
@@ -215,6 +257,18 @@ def _coarse_offset(coarse_model, t_imu: np.ndarray, t_other: np.ndarray, min_ove
     return h, float(grid[i]), float(scores[i]), second
 
 
+def best_off_its_stamps(est: dict) -> str:
+    """What a DVL on the IMU span whose clock is not found is told of its best offset (``est``: a not confident
+    :meth:`ClockOffset.to_dict`): where that lies off its stamps (:attr:`ClockOffset.off_its_stamps`), a clause naming
+    it and the key to give it with; else ''."""
+    if not est.get("off_its_stamps"):
+        return ""
+    return (f"; the IMU explains {est['stamped']:.2f} of the DVL's velocity changes at its stamps as read and "
+            f"{est['peak']:.2f} at the best offset, {est['offset_s']:+.3f} s, {est['peak'] - est['second_peak']:.2f} "
+            f"more than at any other: the DVL clock looks off, but not clearly by that offset: give dvl_time_offset_s "
+            f"{est['offset_s']:.3f} if it is the DVL clock's")
+
+
 def shift_dvl(dvl, depth, offset_s: float, meta: dict):
     """``(dvl, depth)`` with ``offset_s`` (s) added to the DVL stamps and to a depth stream of the same instrument
     (:func:`_same_instrument`: a DVL's pressure sensor shares its clock), the depth's move noted in ``meta``; a
@@ -236,12 +290,13 @@ def align_stream_clocks(imu, dvl, depth=None, meta: dict | None = None, config=N
                         what_to_do: str = "give dvl_time_offset_s"):
     """Put the DVL (and a depth stream from the same instrument) on the IMU clock: ``(dvl, depth)``.
 
-    The clock offset is estimated (:func:`estimate_dvl_clock_offset`) and applied when it is confident
-    and at least half a DVL period (smaller offsets are left to the fine DVL time-offset calibration,
-    which needs a reference or the graph, and are noted in meta). A depth stream with the DVL's source
-    (a DVL's pressure sensor) moves with it. The decision is noted in ``meta["streams"]`` and, when
-    applied, warned about; ``meta["clock_offsets"]["dvl"]`` keeps the estimate. ``field``: the stamp column named
-    in an error; ``what_to_do``: how to give the offset, for the error.
+    The clock offset is estimated (:func:`estimate_dvl_clock_offset`) and applied when it is confident (for a DVL on
+    the IMU span, also a peak under the clear one far off its stamps: :attr:`ClockOffset.confident`, warned about and
+    its pings counted as :data:`CLOCK_TAKEN_UNCLEAR`) and at least half a DVL period (smaller offsets are left to the
+    fine DVL time-offset calibration, which needs a reference or the graph, and are noted in meta). A depth stream
+    with the DVL's source (a DVL's pressure sensor) moves with it. The decision is noted in ``meta["streams"]`` and,
+    when applied, warned about; ``meta["clock_offsets"]["dvl"]`` keeps the estimate. ``field``: the stamp column
+    named in an error; ``what_to_do``: how to give the offset, for the error.
 
     Raises:
         DataError: the DVL is off the IMU clock (:func:`graphnav.core.timeseries.on_the_imu_clock`) and no
@@ -255,6 +310,8 @@ def align_stream_clocks(imu, dvl, depth=None, meta: dict | None = None, config=N
         est = estimate_dvl_clock_offset(imu, dvl, config, min_overlap_s=min_overlap_s, search_s=near)
         if inside:
             est = _beyond_the_near_search(imu, dvl, config, min_overlap_s, est)
+            if not est.confident:
+                est = dataclasses.replace(est, stamped=explained_as_stamped(imu, dvl, config))
     except DataError:
         if inside:
             add_note(meta, "dvl", "clock offset not estimated (too few pings or too short a log); stamps kept")
@@ -270,19 +327,25 @@ def align_stream_clocks(imu, dvl, depth=None, meta: dict | None = None, config=N
             raise DataError(f"DVL stamps [{dvl.t[0]:.3f}, {dvl.t[-1]:.3f}] s lie outside the IMU span "
                             f"[{imu.t[0]:.3f}, {imu.t[-1]:.3f}] s (they share {overlap_text(dvl.t, imu.t)}) and the "
                             f"clock offset cannot be found: {why}; {what_to_do}", dvl.source, field=field)
-        add_note(meta, "dvl", f"clock offset not applied: {why}")
+        add_note(meta, "dvl", f"clock offset not applied: {why}{best_off_its_stamps(est.to_dict())}")
         return dvl, depth
     if abs(est.offset_s) < 0.5 * period and inside:
         add_note(meta, "dvl", f"clock offset {est.describe()} is under half a DVL period: left to the fine "
                  "DVL time-offset calibration")
         return dvl, depth
     text = f"DVL clock offset {est.describe()} estimated from the data and added to the DVL stamps"
+    if not est.clear:
+        text += (f", though under the clear peak the search asks for ({MIN_PEAK:g} explained, residual ratio "
+                 f"{MIN_SSE_RATIO:g}; the DVL noise hides the vehicle's accelerations): the stamps as read explain "
+                 f"{est.peak - est.stamped:.2f} less and every other offset {est.peak - est.second_peak:.2f} less")
     if not est.sigma_s <= CLOCK_SIGMA_WARN_S:
         text += (f"; the data barely fix it (sigma over {CLOCK_SIGMA_WARN_S:g} s: a short log, or little "
                  "acceleration): give dvl_time_offset_s if it is known, or let graphnav calibrate fit it against a "
                  "reference")
     warnings.warn(f"{dvl.source}: {text}", RuntimeWarning, stacklevel=2)
     add_note(meta, "dvl", text)
+    if not est.clear:
+        count_doubted(meta, "dvl", CLOCK_TAKEN_UNCLEAR, len(dvl.t))
     # a depth of another instrument left off the IMU span is the prepare step's to leave out, as without a DVL move
     return shift_dvl(dvl, depth, est.offset_s, meta)
 

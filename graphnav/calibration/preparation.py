@@ -766,8 +766,8 @@ def _prepare_streams(mission: Mission, meta: dict, facts: dict) -> Mission:
             mission.config, meta, judged_velocity_unit(meta), _dvl_fixes(facts),
             facts.get("imu_frame") or {"what": "the body frame"})
         mission = dataclasses.replace(mission, imu=imu)
-        if not given and dvl is searched and facts.get("format") == "csv":
-            _say_clock_not_found(dvl, meta)
+        if not given and dvl is searched:
+            _say_clock_not_found(dvl, meta, facts.get("format"))
     elif on_the_imu_clock(dvl.t, mission.imu.t):
         _check_declared_clock(mission, dvl, given)
     mission = dataclasses.replace(mission, imu=_gyro_against_dvl(mission.imu, dvl, mission.config, meta))
@@ -1004,16 +1004,18 @@ def _gyro_against_dvl(imu: ImuData, dvl: DvlData, config: SensorConfig, meta: di
 
 #: Why the pings of a column map's DVL overlapping the IMU span are counted when the clock search (``clock: auto``, no
 #: offset given) finds no clear offset: kept on their stamps as read, which may lie seconds off the IMU clock (a bag's
-#: header stamps, which no key declares on the IMU clock, keep the note only).
+#: header stamps, which no key declares on the IMU clock, keep the note only, unless the best offset lies off them:
+#: :attr:`graphnav.calibration.clock.ClockOffset.off_its_stamps`).
 CLOCK_NOT_FOUND = "DVL stamps kept as read: the clock search found no clear offset"
 
 
-def _say_clock_not_found(dvl: DvlData, meta: dict) -> None:
-    """A column map's DVL the clock search left on its stamps as read for want of a clear offset
-    (``meta["clock_offsets"]["dvl"]`` not confident): warned about and its pings counted (:data:`CLOCK_NOT_FOUND`); its
-    note says why."""
+def _say_clock_not_found(dvl: DvlData, meta: dict, form: str | None) -> None:
+    """A DVL the clock search left on its stamps as read for want of a clear offset (``meta["clock_offsets"]["dvl"]``
+    not confident): a column map's (``form`` 'csv'), or any whose best offset lies off its stamps, warned about naming
+    that offset (:func:`graphnav.calibration.clock.best_off_its_stamps`) and its pings counted
+    (:data:`CLOCK_NOT_FOUND`); its note says why."""
     est = meta.get("clock_offsets", {}).get("dvl")
-    if est is None or est["confident"]:
+    if est is None or est["confident"] or not (form == "csv" or est.get("off_its_stamps")):
         return
     found = _clock_not_found_said(est)
     if meta.get(OFF_ITS_STAMPS):
@@ -1021,16 +1023,19 @@ def _say_clock_not_found(dvl: DvlData, meta: dict) -> None:
         raise DataError(f"{found}, and its velocity, which turns with the vehicle, is body-fixed only at its own best "
                         "clock offset, not at its stamps as read: give dvl_time_offset_s (s added to the DVL stamps)",
                         dvl.source, field=meta.get("stream_fields", {}).get("dvl"))
+    declare = ("declare csv_columns.dvl.clock 'imu' if it is on the IMU clock, else give dvl_time_offset_s"
+               if form == "csv" else "give dvl_time_offset_s if it is known")
     warnings.warn(f"{dvl.source}: {found}: its stamps are kept as read, on the IMU clock, and a DVL seconds off it is "
-                  "judged and fused there: declare csv_columns.dvl.clock 'imu' if it is on the IMU clock, else give "
-                  "dvl_time_offset_s", RuntimeWarning, stacklevel=4)
+                  f"judged and fused there: {declare}", RuntimeWarning, stacklevel=4)
     count_doubted(meta, "dvl", CLOCK_NOT_FOUND, len(dvl.t))
 
 
 def _clock_not_found_said(est: dict) -> str:
-    """A DVL clock search's estimate ``est`` (``meta["clock_offsets"]["dvl"]``) that found no clear offset, said."""
+    """A DVL clock search's estimate ``est`` (``meta["clock_offsets"]["dvl"]``) that found no clear offset, said (with
+    its best offset where that lies off the stamps: :func:`graphnav.calibration.clock.best_off_its_stamps`)."""
+    from graphnav.calibration.clock import best_off_its_stamps
     return (f"DVL clock offset not found (the IMU's accelerations explain the DVL's velocity changes at no clear "
-            f"offset: best {est['peak']:.2f}, next {est['second_peak']:.2f})")
+            f"offset: best {est['peak']:.2f}, next {est['second_peak']:.2f}{best_off_its_stamps(est)})")
 
 
 def _clock_searched(run, search, imu: ImuData, dvl: DvlData, config: SensorConfig, meta: dict,
