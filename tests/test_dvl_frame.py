@@ -1042,6 +1042,10 @@ def test_an_akit_folder_without_gt_whose_dvl_is_seconds_off_loads_where_the_cloc
     assert found and float(found.group(1)) == pytest.approx(-shift, abs=0.15), said
     from graphnav.calibration.preparation import AKIT_DVL_CLOCK_DOUBT
     assert m.meta["streams"]["dvl"]["doubted"] == {AKIT_DVL_CLOCK_DOUBT: len(m.dvl.t)}
+    # the estimate kept is on the stamps as read, its coarse offset as its offset
+    kept = m.meta["clock_offsets"]["dvl"]
+    assert kept["offset_s"] == m.config.dvl_time_offset_s, kept
+    assert abs(kept["coarse_offset_s"] - kept["offset_s"]) < 0.5, kept
 
 
 def test_a_declared_velocity_unit_no_unit_explains_is_kept_with_a_counted_warning(sim, monkeypatch):

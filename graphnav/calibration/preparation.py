@@ -557,7 +557,8 @@ def _akit_dvl_offset_without_gt(dvl: DvlData, imu: ImuData, cfg: SensorConfig, m
         why = f"the IMU explains {est.peak:.2f} of the DVL's velocity changes at best"
     if est is not None and est.confident and abs(est.offset_s) > max(AKIT_DVL_CLOCK_MARGIN_S, 3.0 * est.sigma_s):
         offset = default + est.offset_s
-        found = dataclasses.replace(est, offset_s=offset)
+        # on the stamps as read, as a clock search's estimate is (its coarse offset too)
+        found = dataclasses.replace(est, offset_s=offset, coarse_offset_s=default + est.coarse_offset_s)
         text = (f"field '{AKIT_COLUMNS['DVL'][0]}': no GT file, and the DVL clock fit (its velocity changes against "
                 f"the IMU's accelerations) puts the DVL at {found.describe()}, {est.offset_s:+.2f} s from this "
                 f"vehicle's usual {default:+.2f} s: {offset:+.3f} s is used. Give dvl_time_offset_s (s added to the "
