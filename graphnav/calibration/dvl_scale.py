@@ -304,8 +304,8 @@ def _best_fits(models: dict, offsets) -> dict:
     if len(offsets) > 1 and len(models[0].t) > COARSE_MAX_WINDOWS:
         thin = _best_offsets({k: m.thinned(COARSE_MAX_WINDOWS) for k, m in models.items()}, near, reach)
         near = {k: offsets[np.abs(offsets - thin[k][0]) <= OFFSET_REFINE_S] for k in models}
-    return {k: (1.0 - explained, 3 * models[k].window * windows)
-            for k, (_, (explained, _, windows)) in _best_offsets(models, near, reach).items()}
+    return {k: (1.0 - explained, 3 * pings) for k, (_, (explained, _, _), pings) in _best_offsets(models, near,
+                                                                                                 reach).items()}
 
 
 def _window_reach(model) -> np.ndarray:
@@ -325,19 +325,20 @@ def _searchable(model, offsets: np.ndarray) -> tuple[np.ndarray, float]:
 
 
 def _best_offsets(models: dict, near: dict, reach: float | None = None) -> dict:
-    """Each model's ``(offset, score)`` at its best offset among ``near[key]`` (the first of equals), the IMU's
-    integrals interpolated once per offset for the models scored there; over the windows reaching ``reach`` s
-    (:func:`_searchable`; default each offset's own)."""
+    """Each model's ``(offset, score, pings)`` at its best offset among ``near[key]`` (the first of equals), with the
+    pings fitted there, the IMU's integrals interpolated once per offset for the models scored there; over the
+    windows reaching ``reach`` s (:func:`_searchable`; default each offset's own), less their padding (the rest of
+    the pings between two outages, :func:`~graphnav.core.dvl_kinematics.window_rows`)."""
     best = {}
     first = next(iter(models.values()))
-    use = None if reach is None else np.repeat((_window_reach(first) >= reach)[:, None], first.window, axis=1)
+    use = None if reach is None else (_window_reach(first) >= reach)[:, None] & first.real
     for o in np.unique(np.concatenate(list(near.values()))):
         at = None
         for k in (k for k in models if np.isin(o, near[k])):
             at = models[k].imu_at(o, use) if at is None else at
             score = models[k].score(o, at=at)
             if k not in best or score[0] > best[k][1][0]:
-                best[k] = (o, score)
+                best[k] = (o, score, int(np.count_nonzero(at[0])) if score[2] else 0)
     return best
 
 
