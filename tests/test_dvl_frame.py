@@ -591,6 +591,20 @@ def test_a_dvl_mostly_without_pings_and_a_few_spikes_is_not_advised_a_knots_unit
     assert "'kn'" not in str(err.value)
 
 
+def test_knots_read_as_m_s_with_most_pings_without_bottom_lock_are_refused_naming_both(sim600, tmp_path):
+    """Knots read as m/s with 55 % of the pings without bottom lock: the refusal said only "check bottom lock", dropping
+    the unit the pings beyond the envelope (0.37 of the rest, not a few spikes) point to. Both are said now."""
+    from graphnav.io.loaders import UNIT_ADVICE_MIN_SPEED_SHARE
+    m, t, v_b = sim600
+    v = v_b / 0.514444
+    v[np.random.default_rng(3).random(len(t)) < 0.55] = np.nan
+    with pytest.raises(DataError, match=r"refused for what no velocity unit changes \(no valid beam\).*check that the "
+                                        r"DVL kept bottom lock.*; besides, the unit taken .* in 'kn'.*declare "
+                                        r"csv_columns\.dvl\.velocity_unit 'kn'"):
+        _load(_folder(tmp_path, sim600, v, {"clock": "auto"}))
+    assert 0.03 < UNIT_ADVICE_MIN_SPEED_SHARE < 0.37
+
+
 def test_a_turn_off_a_quarter_turn_is_said_about_it_with_the_remainder(sim, tmp_path):
     """A DVL turned 100 deg on a clock of its own was named turned "+90 deg"; a turn of 180 deg was printed -180."""
     from graphnav.calibration import dvl_scale

@@ -1158,31 +1158,42 @@ def _declared_unit_advice(meta: dict, imu, t: np.ndarray, v: np.ndarray, cfg: Se
     a column map's without one: the unit its loader took, :func:`graphnav.io.units.taken_velocity_unit`) are refused
     and a smaller unit explains them (:func:`graphnav.io.dvl_frame.smaller_unit_advice`, the body-frame velocity ``v``
     (M,3, m/s) at ``t`` (s) against ``imu``): a unit 10x too large, or knots read as m/s, puts a vehicle beyond its
-    envelope, where the refusal's "check the units" does not say which; else ``{}``. No unit is advised where the
-    pings refused for something a unit does not change (no valid beam, bottom lock lost) are over half the stream by
-    themselves: the refusal then says so (:func:`_refused_whatever_the_unit`)."""
+    envelope, where the refusal's "check the units" does not say which; else ``{}``. Where the pings refused for
+    something a unit does not change (no valid beam, bottom lock lost) are over half the stream by themselves, the
+    refusal says so (:func:`_refused_whatever_the_unit`), and a unit is advised beside it only where the pings refused
+    for their speed are at least :data:`UNIT_ADVICE_MIN_SPEED_SHARE` of the rest (not a few spikes)."""
     from graphnav.io.units import judged_velocity_unit
     declared = judged_velocity_unit(meta)
     if not declared or not over_refused_limit(meta, "dvl"):
         return {}
-    whatever = _refused_whatever_the_unit(meta)
-    if whatever:
-        return {"dvl": whatever}
-    from graphnav.io.dvl_frame import smaller_unit_advice
-    advice = smaller_unit_advice(t, v, declared, imu.t, imu.f_b, imu.omega_b, cfg.dvl)
-    return {"dvl": advice} if advice else {}
+    whatever, speed_share = _refused_whatever_the_unit(meta)
+    advice = None
+    if whatever is None or speed_share >= UNIT_ADVICE_MIN_SPEED_SHARE:
+        from graphnav.io.dvl_frame import smaller_unit_advice
+        advice = smaller_unit_advice(t, v, declared, imu.t, imu.f_b, imu.omega_b, cfg.dvl)
+    said = "; besides, ".join(s for s in (whatever, advice) if s)
+    return {"dvl": said} if said else {}
 
 
-def _refused_whatever_the_unit(meta: dict) -> str | None:
-    """What to check when the DVL pings refused for reasons a velocity unit does not change (all but the vehicle's
-    envelope and a beam beyond its speed) are over :data:`~graphnav.core.screening.MAX_REFUSED_FRACTION` of the
-    stream by themselves (``meta["streams"]["dvl"]``), naming them and the few a unit could; else None. A DVL with
-    over half its pings without a valid beam and a few speed spikes was advised knots, in which as many are refused."""
+#: Where most of a DVL's pings are refused for what no unit changes, a smaller unit is still advised when the pings
+#: refused for their speed are at least this share of the others: knots read as m/s with 55 % of the pings without
+#: bottom lock have 98 of 268 (0.37) beyond the envelope; a DVL with 61 % of its pings blank and 1 in 50 at 3x speed,
+#: which a unit does not explain, 6 of 234 (0.03).
+UNIT_ADVICE_MIN_SPEED_SHARE = 0.1
+
+
+def _refused_whatever_the_unit(meta: dict) -> tuple[str | None, float]:
+    """``(what to check, share)`` when the DVL pings refused for reasons a velocity unit does not change (all but the
+    vehicle's envelope and a beam beyond its speed) are over :data:`~graphnav.core.screening.MAX_REFUSED_FRACTION` of
+    the stream by themselves (``meta["streams"]["dvl"]``), naming them and the few a unit could, else None; ``share``:
+    the pings refused for their speed over those not refused for the other reasons. A DVL with over half its pings
+    without a valid beam and a few speed spikes was advised knots, in which as many are refused."""
     entry = meta["streams"]["dvl"]
     by_speed = {r: n for r, n in entry["refused"].items() if r.startswith("outside the envelope") or "beam beyond" in r}
     others = {r: n for r, n in entry["refused"].items() if r not in by_speed}
+    share = sum(by_speed.values()) / max(entry["read"] - sum(others.values()), 1)
     if not sum(others.values()) > MAX_REFUSED_FRACTION * entry["read"]:
-        return None
+        return None, share
     main = max(others, key=others.get)
     said = (f"{sum(others.values())} of the {entry['read']} pings are refused for what no velocity unit changes "
             f"({', '.join(r.split(' (')[0] for r in sorted(others, key=others.get, reverse=True))})")
@@ -1192,6 +1203,6 @@ def _refused_whatever_the_unit(meta: dict) -> str | None:
             "columns"
             if main.startswith("no valid beam") or main == NO_BOTTOM_LOCK else
             "the column map and the configuration's sensor ranges")
-    return f"{said}: check {what}"
+    return f"{said}: check {what}", share
 
 
