@@ -1062,6 +1062,26 @@ def test_an_akit_folder_without_gt_whose_dvl_is_seconds_off_loads_where_the_cloc
     assert abs(kept["coarse_offset_s"] - kept["offset_s"]) < 0.5, kept
 
 
+def test_an_akit_dvl_whose_clock_fit_points_seconds_away_without_a_clear_offset_is_said_in_the_default_warning(
+        sim, monkeypatch):
+    """A noisier A-KIT DVL 3 s late without GT (0.04 m/s added: fits at -2.7..-3.3 s explaining under 0.2) kept the
+    vehicle's +1.02 s with a note only; the default's warning now says the fit does not confirm it. A fit at the
+    default says nothing more."""
+    from graphnav.calibration import preparation
+    from graphnav.calibration.clock import ClockOffset
+    m = sim[0]
+    for offset, said in ((-3.0, True), (0.1, False)):
+        fit = ClockOffset(offset, 0.2, 0.15, 0.1, offset, 0.04, 300.0, 300)
+        monkeypatch.setattr(preparation, "_dvl_clock_fit_near", lambda *a, fit=fit: fit)
+        meta = {"source": "Trajectory1"}
+        with pytest.warns(RuntimeWarning) as caught:
+            assert preparation._akit_dvl_offset_without_gt(m.dvl, m.imu, m.config, meta) == 1.02
+        text = " ".join(str(w.message) for w in caught)
+        assert ("the DVL clock fit, not clear (the IMU explains 0.15 of the DVL's velocity changes at best, -3.00 s "
+                "from it: no clear offset), does not confirm it: give dvl_time_offset_s" in text) is said, text
+        assert "doubted" not in meta.get("streams", {}).get("dvl", {})
+
+
 def test_a_declared_velocity_unit_no_unit_explains_is_kept_with_a_counted_warning(sim, monkeypatch):
     """Where m/s fits the IMU 4x better than the declared cm/s but explains none of the velocity's changes either (a
     DVL noisier than the IMU's accelerations), the declared unit is kept: a warning naming the key, a note, and the

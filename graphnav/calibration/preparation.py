@@ -546,7 +546,8 @@ def _akit_dvl_offset_without_gt(dvl: DvlData, imu: ImuData, cfg: SensorConfig, m
     accelerations) is confident and puts the DVL further than :data:`AKIT_DVL_CLOCK_MARGIN_S` and 3 sigmas from it.
     Its offset is then used, warned about naming it and ``dvl_time_offset_s``, and the pings are counted as doubted
     (:data:`AKIT_DVL_CLOCK_DOUBT`): a DVL file 2.5-3.5 s late was loaded that far off the IMU clock with only the
-    default's warning. A fit that cannot judge leaves the default, noted."""
+    default's warning. A fit that cannot judge leaves the default, noted; one without a clear offset that points
+    further than the margin from it is said in the default's warning."""
     from graphnav.io.loaders import AKIT_COLUMNS, AKIT_DVL_TIME_OFFSET_S
     default = AKIT_DVL_TIME_OFFSET_S
     try:
@@ -554,7 +555,8 @@ def _akit_dvl_offset_without_gt(dvl: DvlData, imu: ImuData, cfg: SensorConfig, m
     except DataError as err:
         est, why = None, str(err)
     if est is not None and not est.confident:
-        why = f"the IMU explains {est.peak:.2f} of the DVL's velocity changes at best"
+        why = (f"the IMU explains {est.peak:.2f} of the DVL's velocity changes at best, {est.offset_s:+.2f} s from "
+               "it: no clear offset")
     if est is not None and est.confident and abs(est.offset_s) > max(AKIT_DVL_CLOCK_MARGIN_S, 3.0 * est.sigma_s):
         offset = default + est.offset_s
         # on the stamps as read, as a clock search's estimate is (its coarse offset too)
@@ -569,9 +571,12 @@ def _akit_dvl_offset_without_gt(dvl: DvlData, imu: ImuData, cfg: SensorConfig, m
     if est is None or not est.confident:
         add_note(meta, "dvl", f"the vehicle's DVL time offset {default:+.2f} s is not checked against the DVL clock "
                  f"fit ({why})")
+    # a fit without a clear offset may still point seconds away (0.04 m/s of DVL noise, 3 s late: -2.7..-3.3 s)
+    unclear = (f"; the DVL clock fit, not clear ({why}), does not confirm it: give dvl_time_offset_s if it is known"
+               if est is not None and not est.confident and abs(est.offset_s) > AKIT_DVL_CLOCK_MARGIN_S else "")
     warnings.warn(f"{meta.get('source')}: no GT file, so the DVL time offset cannot be estimated; using this "
                   f"vehicle's {default:+.2f} s (the mean of the estimates on the shared "
-                  "trajectories, spread 0.025 s); `graphnav calibrate --mode graph` estimates it without GT",
+                  f"trajectories, spread 0.025 s){unclear}; `graphnav calibrate --mode graph` estimates it without GT",
                   RuntimeWarning, stacklevel=5)
     return default
 
