@@ -589,3 +589,20 @@ def test_a_noisier_dvl_off_its_stamps_whose_offset_does_not_stand_out_is_told_th
         m = load_mission(config.parent, config)
     np.testing.assert_allclose(m.dvl.t, sim.dvl.t + 30.0, atol=1e-6)
     assert m.meta["streams"]["dvl"]["doubted"] == {CLOCK_NOT_FOUND: len(sim.dvl.t)}
+
+
+def test_a_clean_dvl_a_second_or_two_late_is_not_taken_to_a_manoeuvre_repeated_far_off(tmp_path):
+    """A 200 s log with 0.035 m/s beams whose DVL lags 1.5 s (a fine time offset, left to the fine calibration): its
+    best offset, +81.6 s, is a manoeuvre repeated 82 s on (0.148 explained, 0.097 elsewhere). Scored against the stamps
+    as read (0.042, 1.5 s off the DVL's own clock) it explained 0.1 more, so the DVL was moved 81.6 s off its clock;
+    scored at the best within FINE_OFFSET_S of the stamps (0.097) it is neither taken nor named."""
+    cfg = SensorConfig()
+    cfg.dvl = dataclasses.replace(cfg.dvl, beam_noise_std=0.035)
+    sim = simulate_mission(200.0, seed=36, config=cfg)
+    config = _beams_log(sim, tmp_path / "lagging", 1.5, "auto")
+    with warnings.catch_warnings(record=True) as said:
+        warnings.simplefilter("always")
+        m = load_mission(config.parent, config)
+    np.testing.assert_allclose(m.dvl.t, sim.dvl.t + 1.5, atol=1e-6)
+    assert not [w for w in said if "under the clear peak" in str(w.message) or "best offset" in str(w.message)]
+    assert m.meta["clock_offsets"]["dvl"]["stamped"] == pytest.approx(0.097, abs=0.01)
