@@ -606,3 +606,16 @@ def test_a_clean_dvl_a_second_or_two_late_is_not_taken_to_a_manoeuvre_repeated_f
     np.testing.assert_allclose(m.dvl.t, sim.dvl.t + 1.5, atol=1e-6)
     assert not [w for w in said if "under the clear peak" in str(w.message) or "best offset" in str(w.message)]
     assert m.meta["clock_offsets"]["dvl"]["stamped"] == pytest.approx(0.097, abs=0.01)
+
+
+def test_a_best_offset_off_the_stamps_barely_ahead_of_the_next_is_not_named_as_the_offset_to_give():
+    """A 200 s log with 0.03 m/s beams 45 s late was told "give dvl_time_offset_s 54.363", its best offset by 0.01 over
+    the next (the right one, -45 s): three of 16 named offsets were wrong, each 0.003-0.009 ahead of the next. Those
+    are no longer given as the key's value; one clearly ahead still is."""
+    from graphnav.calibration.clock import NAMED_OFFSET_MIN_GAP, best_off_its_stamps
+    est = {"off_its_stamps": True, "stamped": -0.09, "peak": 0.19, "offset_s": 54.363}
+    close = best_off_its_stamps({**est, "second_peak": 0.18})
+    assert "dvl_time_offset_s 54.363" not in close and "the data name no offset" in close, close
+    ahead = best_off_its_stamps({**est, "second_peak": 0.19 - 2 * NAMED_OFFSET_MIN_GAP})
+    assert "give dvl_time_offset_s 54.363 if it is the DVL clock's" in ahead, ahead
+    assert best_off_its_stamps({**est, "off_its_stamps": False, "second_peak": 0.0}) == ""

@@ -73,6 +73,10 @@ OFF_STAMPS_MIN_PEAK = 0.05
 #: above, the 4 whose best offset was wrong beat the next by 0.003-0.009, the 68 right ones by 0.005-0.165: 51 taken,
 #: 13 named (beating the stamps by STAMPS_DEFICIT, not the others by this); the clean log above beat the next by 0.043.
 OFF_STAMPS_MIN_GAP = 0.05
+#: Such an offset not taken is named in the clock warning, with the key to give it, only where it beats the next best
+#: by this much: of the 16 named in those late logs, the 3 at a wrong offset beat the next by 0.003-0.009 (a 200 s log,
+#: 0.03 m/s, 45 s late: +54.36 s named for -45 s, by 0.01), 2 right ones by 0.005, the other 11 right ones 0.02-0.046.
+NAMED_OFFSET_MIN_GAP = 0.015
 #: The stamps of a DVL on the IMU span whose peak is not clear are scored at their best within this (s): a DVL that
 #: lags its stamps by its fine time offset (the A-KIT DVL 0.5-1.5 s) explains less at them than a second off.
 FINE_OFFSET_S = 2.0
@@ -267,13 +271,16 @@ def _coarse_offset(coarse_model, t_imu: np.ndarray, t_other: np.ndarray, min_ove
 def best_off_its_stamps(est: dict) -> str:
     """What a DVL on the IMU span whose clock is not found is told of its best offset (``est``: a not confident
     :meth:`ClockOffset.to_dict`): where that lies off its stamps (:attr:`ClockOffset.off_its_stamps`), a clause naming
-    it and the key to give it with; else ''."""
+    it and the key to give it with (only where it beats the next best by :data:`NAMED_OFFSET_MIN_GAP`); else ''."""
     if not est.get("off_its_stamps"):
         return ""
-    return (f"; the IMU explains {est['stamped']:.2f} of the DVL's velocity changes at its stamps as read and "
-            f"{est['peak']:.2f} at the best offset, {est['offset_s']:+.3f} s, {est['peak'] - est['second_peak']:.2f} "
-            f"more than at any other: the DVL clock looks off, but not clearly by that offset: give dvl_time_offset_s "
-            f"{est['offset_s']:.3f} if it is the DVL clock's")
+    gap = est['peak'] - est['second_peak']
+    said = (f"; the IMU explains {est['stamped']:.2f} of the DVL's velocity changes at its stamps as read and "
+            f"{est['peak']:.2f} at the best offset, {est['offset_s']:+.3f} s, {gap:.2f} more than at any other: the DVL "
+            "clock looks off, but")
+    if gap < NAMED_OFFSET_MIN_GAP:
+        return f"{said} the data name no offset (another explains nearly as much): give dvl_time_offset_s if it is known"
+    return f"{said} not clearly by that offset: give dvl_time_offset_s {est['offset_s']:.3f} if it is the DVL clock's"
 
 
 def shift_dvl(dvl, depth, offset_s: float, meta: dict):
