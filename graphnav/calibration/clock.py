@@ -276,10 +276,11 @@ def best_off_its_stamps(est: dict) -> str:
         return ""
     gap = est['peak'] - est['second_peak']
     said = (f"; the IMU explains {est['stamped']:.2f} of the DVL's velocity changes at its stamps as read and "
-            f"{est['peak']:.2f} at the best offset, {est['offset_s']:+.3f} s, {gap:.2f} more than at any other: the DVL "
-            "clock looks off, but")
+            f"{est['peak']:.2f} at the best offset, {est['offset_s']:+.3f} s, {gap:.2f} more than at any other: the "
+            "DVL clock looks off, but")
     if gap < NAMED_OFFSET_MIN_GAP:
-        return f"{said} the data name no offset (another explains nearly as much): give dvl_time_offset_s if it is known"
+        return (f"{said} the data name no offset (another explains nearly as much): give dvl_time_offset_s if it is "
+                "known")
     return f"{said} not clearly by that offset: give dvl_time_offset_s {est['offset_s']:.3f} if it is the DVL clock's"
 
 
