@@ -150,10 +150,15 @@ class ClockOffset:
                 f"{self.overlap_s:.0f} s)")
 
     def to_dict(self) -> dict:
-        out = {k: v for k, v in dataclasses.asdict(self).items()
-               if k != "explains" and not (k == "stamped" and not np.isfinite(v))}
-        return {**out, "sharpness": self.sharpness, "confident": self.confident,
-                **({"off_its_stamps": self.off_its_stamps} if "stamped" in out else {})}
+        out = dataclasses.asdict(self)
+        del out["explains"]
+        measured = np.isfinite(self.stamped)      # only for a DVL on the IMU span whose peak is not clear
+        if not measured:
+            del out["stamped"]
+        out.update(sharpness=self.sharpness, confident=self.confident)
+        if measured:
+            out["off_its_stamps"] = self.off_its_stamps
+        return out
 
 
 # ------------------------------------------------------------------------------------------------

@@ -304,8 +304,8 @@ def _best_fits(models: dict, offsets) -> dict:
     if len(offsets) > 1 and len(models[0].t) > COARSE_MAX_WINDOWS:
         thin = _best_offsets({k: m.thinned(COARSE_MAX_WINDOWS) for k, m in models.items()}, near, reach)
         near = {k: offsets[np.abs(offsets - thin[k][0]) <= OFFSET_REFINE_S] for k in models}
-    return {k: (1.0 - explained, 3 * pings) for k, (_, (explained, _, _), pings) in _best_offsets(models, near,
-                                                                                                 reach).items()}
+    best = _best_offsets(models, near, reach)
+    return {k: (1.0 - explained, 3 * pings) for k, (_, (explained, _, _), pings) in best.items()}
 
 
 def _window_reach(model) -> np.ndarray:

@@ -553,11 +553,11 @@ def _akit_dvl_offset_without_gt(dvl: DvlData, imu: ImuData, cfg: SensorConfig, m
     try:
         est = _dvl_clock_fit_near(imu, dataclasses.replace(dvl, t=dvl.t + default), cfg)
     except DataError as err:
-        est, why = None, str(err)
-    if est is not None and not est.confident:
-        why = (f"the IMU explains {est.peak:.2f} of the DVL's velocity changes at best, {est.offset_s:+.2f} s from "
-               "it: no clear offset")
-    if est is not None and est.confident and abs(est.offset_s) > max(AKIT_DVL_CLOCK_MARGIN_S, 3.0 * est.sigma_s):
+        est, not_judged = None, str(err)
+    else:
+        not_judged = None if est.confident else (f"the IMU explains {est.peak:.2f} of the DVL's velocity changes at "
+                                                 f"best, {est.offset_s:+.2f} s from it: no clear offset")
+    if not_judged is None and abs(est.offset_s) > max(AKIT_DVL_CLOCK_MARGIN_S, 3.0 * est.sigma_s):
         offset = default + est.offset_s
         # on the stamps as read, as a clock search's estimate is (its coarse offset too)
         found = dataclasses.replace(est, offset_s=offset, coarse_offset_s=default + est.coarse_offset_s)
@@ -568,12 +568,14 @@ def _akit_dvl_offset_without_gt(dvl: DvlData, imu: ImuData, cfg: SensorConfig, m
         say_doubted(meta, "dvl", str(dvl.source), text, AKIT_DVL_CLOCK_DOUBT, len(dvl.t), stacklevel=5)
         meta.setdefault("clock_offsets", {})["dvl"] = found.to_dict()
         return offset
-    if est is None or not est.confident:
+    unclear = ""
+    if not_judged is not None:
         add_note(meta, "dvl", f"the vehicle's DVL time offset {default:+.2f} s is not checked against the DVL clock "
-                 f"fit ({why})")
-    # a fit without a clear offset may still point seconds away (0.04 m/s of DVL noise, 3 s late: -2.7..-3.3 s)
-    unclear = (f"; the DVL clock fit, not clear ({why}), does not confirm it: give dvl_time_offset_s if it is known"
-               if est is not None and not est.confident and abs(est.offset_s) > AKIT_DVL_CLOCK_MARGIN_S else "")
+                 f"fit ({not_judged})")
+        # a fit without a clear offset may still point seconds away (0.04 m/s of DVL noise, 3 s late: -2.7..-3.3 s)
+        if est is not None and abs(est.offset_s) > AKIT_DVL_CLOCK_MARGIN_S:
+            unclear = (f"; the DVL clock fit, not clear ({not_judged}), does not confirm it: give dvl_time_offset_s if "
+                       "it is known")
     warnings.warn(f"{meta.get('source')}: no GT file, so the DVL time offset cannot be estimated; using this "
                   f"vehicle's {default:+.2f} s (the mean of the estimates on the shared "
                   f"trajectories, spread 0.025 s){unclear}; `graphnav calibrate --mode graph` estimates it without GT",

@@ -289,7 +289,6 @@ def _kinematics(t_dvl: np.ndarray, v: np.ndarray, t_imu: np.ndarray, f_b: np.nda
     if body is None:
         return float("nan"), float("nan")
     L, K, fitted = body
-    windows, free = len(L), 3 * np.count_nonzero(fitted) - 7 * len(L)
     yaw = np.interp(t, ints.t, ints.W[:, 2])
     earth = np.inf
     for sign in (1.0, -1.0):
@@ -302,8 +301,16 @@ def _kinematics(t_dvl: np.ndarray, v: np.ndarray, t_imu: np.ndarray, f_b: np.nda
         G = np.einsum("wki,wkj->wij", P, P)
         c3 = np.stack([np.cos(_HEADINGS), np.sin(_HEADINGS), np.ones_like(_HEADINGS)], axis=1)
         earth = min(earth, float(np.einsum("pi,wij,pj->wp", c3, G, c3).min(axis=1).sum()))
-    limit = BODY_KINEMATICS_RATIO + (windows + 3.0 * np.sqrt(2.0 * windows)) / max(free, 1)
-    return float(np.sum((L - K) ** 2) / max(earth, 1e-300)), float(limit)
+    return float(np.sum((L - K) ** 2) / max(earth, 1e-300)), _body_ratio_limit(fitted)
+
+
+def _body_ratio_limit(fitted: np.ndarray) -> float:
+    """The body-to-earth residual ratio under which a velocity is kept as body (:func:`_kinematics`' docstring), for
+    the windows (rows) of ``fitted`` (win, window; True at the pings fitted, not a window's padding): each leaves 3n - 7
+    numbers free over its n pings fitted."""
+    windows = len(fitted)
+    free = 3 * np.count_nonzero(fitted) - 7 * windows
+    return float(BODY_KINEMATICS_RATIO + (windows + 3.0 * np.sqrt(2.0 * windows)) / max(free, 1))
 
 
 def _readings(model, offset: float, use: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
@@ -387,12 +394,10 @@ def _own_offsets(t_dvl: np.ndarray, v: np.ndarray, t_imu: np.ndarray, f_b: np.nd
     common = model.pings(offsets[0]) & model.pings(offsets[1])
     body, earth = _readings(model, offsets[0], common)[0], _readings(model, offsets[1], common)[1]
     fitted = np.isfinite(body) & np.isfinite(earth)
-    windows = int(fitted.sum())
-    if windows < 2:
+    if fitted.sum() < 2:
         return nan
-    free = 3 * np.count_nonzero(common[fitted]) - 7 * windows       # the pings fitted, a window's padding not
-    limit = BODY_KINEMATICS_RATIO + (windows + 3.0 * np.sqrt(2.0 * windows)) / free
-    return float(np.sum(body[fitted]) / max(np.sum(earth[fitted]), 1e-300)), float(limit), *offsets
+    ratio = float(np.sum(body[fitted]) / max(np.sum(earth[fitted]), 1e-300))
+    return ratio, _body_ratio_limit(common[fitted]), *offsets
 
 
 # a slow vehicle in a strong current (0.3 m/s in 0.5 m/s) moves over the ground much as the water does, whatever its

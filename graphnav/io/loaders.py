@@ -1160,18 +1160,18 @@ def _declared_unit_advice(meta: dict, imu, t: np.ndarray, v: np.ndarray, cfg: Se
     (M,3, m/s) at ``t`` (s) against ``imu``): a unit 10x too large, or knots read as m/s, puts a vehicle beyond its
     envelope, where the refusal's "check the units" does not say which; else ``{}``. Where the pings refused for
     something a unit does not change (no valid beam, bottom lock lost) are over half the stream by themselves, the
-    refusal says so (:func:`_refused_whatever_the_unit`), and a unit is advised beside it only where the pings refused
-    for their speed are at least :data:`UNIT_ADVICE_MIN_SPEED_SHARE` of the rest (not a few spikes)."""
+    refusal says so (:func:`_refused_for_what_no_unit_changes`), and a unit is advised beside it only where the pings
+    refused for their speed are at least :data:`UNIT_ADVICE_MIN_SPEED_SHARE` of the rest (not a few spikes)."""
     from graphnav.io.units import judged_velocity_unit
     declared = judged_velocity_unit(meta)
     if not declared or not over_refused_limit(meta, "dvl"):
         return {}
-    whatever, speed_share = _refused_whatever_the_unit(meta)
+    not_the_unit, speed_share = _refused_for_what_no_unit_changes(meta)
     advice = None
-    if whatever is None or speed_share >= UNIT_ADVICE_MIN_SPEED_SHARE:
+    if not_the_unit is None or speed_share >= UNIT_ADVICE_MIN_SPEED_SHARE:
         from graphnav.io.dvl_frame import smaller_unit_advice
         advice = smaller_unit_advice(t, v, declared, imu.t, imu.f_b, imu.omega_b, cfg.dvl)
-    said = "; besides, ".join(s for s in (whatever, advice) if s)
+    said = "; besides, ".join(s for s in (not_the_unit, advice) if s)
     return {"dvl": said} if said else {}
 
 
@@ -1182,7 +1182,7 @@ def _declared_unit_advice(meta: dict, imu, t: np.ndarray, v: np.ndarray, cfg: Se
 UNIT_ADVICE_MIN_SPEED_SHARE = 0.1
 
 
-def _refused_whatever_the_unit(meta: dict) -> tuple[str | None, float]:
+def _refused_for_what_no_unit_changes(meta: dict) -> tuple[str | None, float]:
     """``(what to check, share)`` when the DVL pings refused for reasons a velocity unit does not change (all but the
     vehicle's envelope and a beam beyond its speed) are over :data:`~graphnav.core.screening.MAX_REFUSED_FRACTION` of
     the stream by themselves (``meta["streams"]["dvl"]``), naming them and the few a unit could, else None; ``share``:
@@ -1194,14 +1194,14 @@ def _refused_whatever_the_unit(meta: dict) -> tuple[str | None, float]:
     share = sum(by_speed.values()) / max(entry["read"] - sum(others.values()), 1)
     if not sum(others.values()) > MAX_REFUSED_FRACTION * entry["read"]:
         return None, share
-    main = max(others, key=others.get)
+    most = max(others, key=others.get)
     said = (f"{sum(others.values())} of the {entry['read']} pings are refused for what no velocity unit changes "
             f"({', '.join(r.split(' (')[0] for r in sorted(others, key=others.get, reverse=True))})")
     if by_speed:
         said += f", over {MAX_REFUSED_FRACTION:.0%} without the {sum(by_speed.values())} beyond the vehicle's envelope"
     what = ("that the DVL kept bottom lock (altitude within its range) and that its velocity is read from the right "
             "columns"
-            if main.startswith("no valid beam") or main == NO_BOTTOM_LOCK else
+            if most.startswith("no valid beam") or most == NO_BOTTOM_LOCK else
             "the column map and the configuration's sensor ranges")
     return f"{said}: check {what}", share
 
