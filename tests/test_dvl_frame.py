@@ -91,11 +91,13 @@ def test_an_earth_frame_velocity_is_refused_undeclared_and_turned_back_declared(
         np.testing.assert_allclose(got.dvl.v_b, v_b, atol=1e-8)
 
 
-def _slow_in_current(seed, speed, current, duration=300.0, noise=0.01, sideways=False, ned=False):
+def _slow_in_current(seed, speed, current, duration=300.0, noise=0.01, sideways=False, ned=False, tilt_deg=(2.0, 3.0),
+                     reverse_at=None):
     """A level-ish vehicle at ``speed`` m/s through the water, turning at up to 3 deg/s, in a steady ``current`` m/s:
     the IMU (100 Hz, samples the increments over each step) and the DVL's body-frame velocity over the ground (1 Hz,
-    ``noise`` m/s), exact kinematics; ``sideways``: moving along its y (a crabbing ROV). Returns (t_imu, f_b,
-    omega_b, t_dvl, v_b), and with ``ned`` the same velocity in NED (M,3) too."""
+    ``noise`` m/s), exact kinematics; ``sideways``: moving along its y (a crabbing ROV); ``tilt_deg``: its roll and
+    pitch swings; ``reverse_at``: the time (s) it turns from ``speed`` forward to as fast backward (over about 10 s).
+    Returns (t_imu, f_b, omega_b, t_dvl, v_b), and with ``ned`` the same velocity in NED (M,3) too."""
     from scipy.spatial.transform import Rotation
 
     from graphnav.core.rotations import euler_to_C_b_n
@@ -113,10 +115,11 @@ def _slow_in_current(seed, speed, current, duration=300.0, noise=0.01, sideways=
 
     def attitude(t):
         heading = np.interp(t, np.arange(len(rate)) * dt, np.concatenate([[0.0], np.cumsum(rate[1:] * dt)]))
-        return euler_to_C_b_n(np.deg2rad(2.0) * np.sin(2 * np.pi * t / 17 + ph[0]),
-                              np.deg2rad(3.0) * np.sin(2 * np.pi * t / 41 + ph[1]), heading + ph[2])
+        return euler_to_C_b_n(np.deg2rad(tilt_deg[0]) * np.sin(2 * np.pi * t / 17 + ph[0]),
+                              np.deg2rad(tilt_deg[1]) * np.sin(2 * np.pi * t / 41 + ph[1]), heading + ph[2])
     C = attitude(t)
-    through_water = np.stack([speed + 0.05 * np.sin(2 * np.pi * t / 53 + ph[3]), 0.0 * t, 0.0 * t], axis=1)
+    u = speed if reverse_at is None else speed * np.tanh((reverse_at - t) / 5.0)
+    through_water = np.stack([u + 0.05 * np.sin(2 * np.pi * t / 53 + ph[3]), 0.0 * t, 0.0 * t], axis=1)
     through_water = through_water[:, [1, 0, 2]] if sideways else through_water
     v_n = np.einsum("kij,kj->ki", C, through_water) + current * np.array([np.cos(ph[0]), np.sin(ph[0]), 0.0])
     omega_b = Rotation.from_matrix(np.swapaxes(C[:-1], 1, 2) @ C[1:]).as_rotvec() / dt
@@ -1299,3 +1302,47 @@ def test_a_noisy_dvl_pointing_forward_whose_clock_is_not_found_is_not_searched_t
         warnings.simplefilter("ignore")
         got = _load(_folder(tmp_path, (m, t, v_b), v_b, {"clock": "auto"}))
     assert not got.meta["clock_offsets"]["dvl"]["confident"] and tried == []
+
+
+@pytest.mark.parametrize("shift", [0.0, -86400.0])
+def test_a_velocity_declared_in_the_body_frame_is_kept_with_a_counted_warning_where_the_frame_checks_refuse_it(
+        sim, shift):
+    """A user who knows the DVL is body-fixed had no way to load a log the frame checks refuse: a declared
+    ``frame: body`` was refused as an undeclared one, advised only to declare an earth frame. A declared vehicle frame
+    is taken now: where the turn check (on the IMU clock) or the spread check (a day off) find the velocity earth-fixed
+    (here the mission's NED copy: kinematics 60x, spread 1.00x), it is kept with a counted warning saying what they
+    found; undeclared it is still refused, the refusal saying how to keep a body-frame velocity."""
+    from graphnav.io import dvl_frame
+    m, t, v_b = sim
+    v_n = np.einsum("kij,kj->ki", _euler_at(sim), v_b)
+    spec = {"file": "dvl.csv", "t": "t", "v_b": ["vx", "vy", "vz"]}
+    args = (t + shift, v_n, None)
+    imu = (m.config.dvl.C_d_b, m.imu.t, m.imu.omega_b, "dvl.csv")
+    with pytest.raises(DataError, match=r"it is earth-fixed \(NED/ENU\): declare csv_columns\.dvl\.frame 'ned' or "
+                                        r"'enu' .*; if it is in the vehicle's frame, declare csv_columns\.dvl\.frame "
+                                        r"\('body'"):
+        dvl_frame.columns_to_body(*args, spec, *imu, {}, m.imu.f_b)
+    meta = {}
+    with pytest.warns(RuntimeWarning, match=r"dvl\.csv: field 'vx, vy, vz': DVL velocity declared in the body frame "
+                                            r"turns with the vehicle: .*it is earth-fixed \(NED/ENU\): kept in the "
+                                            r"body frame as declared; if it is earth-fixed, declare"):
+        got = dvl_frame.columns_to_body(*args, {**spec, "frame": "body"}, *imu, meta, m.imu.f_b)
+    np.testing.assert_array_equal(got, v_n)
+    assert meta["streams"]["dvl"]["doubted"] == {dvl_frame.DECLARED_FRAME_DOUBT: len(t)}
+
+
+def test_a_level_rov_reversing_in_turns_is_not_given_its_imu_y_flipped_by_the_tilt_kinematics(sim, tmp_path):
+    """A level ROV (no roll or pitch) at 0.4 m/s forward for 120 s, then as fast backward, turning at up to 3 deg/s:
+    its accelerometer's gravity direction turns only with its accelerations in turns (median 1.6e-4 rad/s), which
+    fitted the IMU's y flipped 1.26x better than as read (1.2 decides). Its y was flipped, with a warning, and the
+    IMU-turn check then refused the correct log as an IMU turned 180 deg against the DVL. Under 1e-3 rad/s of tilt
+    motion the tilt kinematics do not judge the axes: the log loads as read, without a warning."""
+    m, _, _ = sim
+    t_imu, f_b, omega_b, t, v_b = _slow_in_current(1, 0.4, 0.0, tilt_deg=(0.0, 0.0), reverse_at=120.0)
+    level = dataclasses.replace(m, imu=dataclasses.replace(m.imu, t=t_imu, f_b=f_b, omega_b=omega_b))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        got = _load(_folder(tmp_path, (level, t, None), v_b))
+    assert not caught, [str(w.message) for w in caught]
+    np.testing.assert_allclose(got.imu.f_b, f_b, atol=1e-9)
+    np.testing.assert_allclose(got.dvl.v_b, v_b, atol=1e-9)

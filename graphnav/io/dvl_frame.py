@@ -37,6 +37,11 @@ put on the IMU clock that the turn check would refuse.
 A vehicle so slow that its velocity's noise turns the direction as much as the vehicle turns
 (:func:`course_turn_signal` under :data:`MIN_TURN_SIGNAL`) is not judged by either: kept as body, with a counted
 warning.
+
+These judge a frame taken with none declared. A vehicle frame the user declared (``csv_columns.dvl.frame``, a bag's
+``bag_topics.dvl.frame``) is taken: where the checks find the velocity earth-fixed, it is kept in that frame with a
+counted warning saying what they found (:func:`refuse_unless_declared`, :data:`DECLARED_FRAME_DOUBT`); their refusals
+of an undeclared frame say so.
 """
 from __future__ import annotations
 
@@ -94,6 +99,12 @@ OFF_ITS_STAMPS = "dvl_carried_off_its_stamps"
 #: body kinematics leave over :data:`BODY_KINEMATICS_RATIO` of them but within their noise, or the vehicle turns
 #: under :data:`MIN_TURN_SIGNAL` times that noise; an earth-fixed velocity of a slow vehicle gives the same.
 FRAME_DOUBT = "DVL velocity kept in the vehicle's frame, which its turns and kinematics cannot tell from an earth frame"
+#: Why DVL pings kept in a vehicle frame the user declared are counted as doubted where the frame checks say the
+#: velocity is earth-fixed: a declared frame is taken (the user knows the mounting), the data's contrary word said.
+DECLARED_FRAME_DOUBT = "DVL velocity kept in its declared vehicle frame, though its turns say it is earth-fixed"
+#: The ``meta`` key set when a declared vehicle frame was kept against the frame checks: said once, not again by the
+#: prepare step's check.
+KEPT_AS_DECLARED = "dvl_frame_kept_as_declared"
 #: Windows :func:`_own_offsets`' coarse scan scores at each offset (the clock search's 60 cost 1.6x as much on long
 #: logs). Measured (docs/decisions/dvl-frame.md): logs up to 600 s have fewer; 5400 s slow vehicles a day off and their
 #: NED copies get the same decisions, the body logs' offsets and the copies' earth offsets within 0.5 s of those at 60
@@ -407,6 +418,10 @@ _DECLARE = ("declare csv_columns.dvl.frame 'ned' or 'enu' with the DVL's roll, p
             "'angle_unit')")
 
 
+#: What to do with a velocity the frame checks refuse that is in the vehicle's frame (``key``: the DVL entry).
+_KEEP = "declare {key}.frame ('body', or the vehicle frame it is in): a declared frame is taken, with a warning"
+
+
 #: What to do with an earth-fixed velocity in a bag, whose DVL entry takes no earth frame.
 _BAG_DECLARE = ("republish it in the DVL's or the vehicle's frame (bag_topics.dvl.frame takes instrument, body or "
                 "flu: an earth frame needs the head's attitude at each ping)")
@@ -422,28 +437,32 @@ def _said(spec: dict) -> str:
 
 
 def _column_frame(spec: dict) -> dict:
-    return {"frame": declared_frame(spec), "said": _said(spec), "declare": _DECLARE}
+    return {"frame": declared_frame(spec), "said": _said(spec), "declare": _DECLARE, "declared": "frame" in spec,
+            "keep": _KEEP.format(key="csv_columns.dvl")}
 
 
 def velocity_frame(config, meta: dict) -> dict:
     """How a log's or bag's DVL velocity got its frame, for the frame check the prepare step runs once it has put the
     DVL on the IMU clock: ``{"frame", "said", "declare"}``, the frame's name, the words saying what declared or
     assumed it (a column map's ``csv_columns.dvl.frame`` or its absence, its beams; a bag's DVL message or
-    ``bag_topics.dvl.frame``) and what to do if the velocity is earth-fixed."""
+    ``bag_topics.dvl.frame``) and what to do if the velocity is earth-fixed; ``"declared"``: the user declared the
+    frame (``csv_columns.dvl.frame``, ``bag_topics.dvl.frame``), which the frame checks then warn against but take."""
     if meta.get("prepare", {}).get("format") != "bag":
         spec = (config.csv_columns or {}).get("dvl") or {}
         return _column_frame(spec)
     message = (meta.get("topics") or {}).get("dvl", "DVL topic")
     if "dvl_fields" in meta:                # a vendor's message read through bag_topics.dvl
         frame = meta["dvl_fields"]["frame"]
-        how = "declared" if "frame" in (config.bag_topics.get("dvl") or {}) else "taken (no 'frame' in bag_topics.dvl)"
-        said = f"of the bag's {message} {how} in the {frame} frame"
+        declared = "frame" in (config.bag_topics.get("dvl") or {})
+        how = "declared" if declared else "taken (no 'frame' in bag_topics.dvl)"
+        return {"frame": frame, "said": f"of the bag's {message} {how} in the {frame} frame",
+                "declare": _BAG_DECLARE, "declared": declared, "keep": _KEEP.format(key="bag_topics.dvl")}
     elif "dvl_twist_frame" in meta:
         frame = "instrument" if meta["dvl_twist_frame"].endswith("DVL frame") else "body"
         said = f"of the bag's {message} (frame_id {meta['dvl_twist_frame']})"
     else:
         frame, said = "instrument", f"of the bag's {message} in the DVL frame of its message"
-    return {"frame": frame, "said": said, "declare": _BAG_DECLARE}
+    return {"frame": frame, "said": said, "declare": _BAG_DECLARE, "declared": False}
 
 
 def _evidence(t_dvl, v, t_imu, omega_b, f_b=None, v_b=None) -> tuple:
@@ -523,6 +542,8 @@ def check_not_earth_frame(t_dvl: np.ndarray, v: np.ndarray, t_imu: np.ndarray, o
     ``said``: the frame, how it was declared or assumed and what to do if the velocity is earth-fixed
     (:func:`velocity_frame`)."""
     at_stamps = not own_offsets if at_stamps is None else at_stamps
+    if meta is not None and meta.get(KEPT_AS_DECLARED):
+        return float("nan")             # the loader kept it in its declared frame against the checks: said once
     turns, ratio, (kin, limit) = _evidence(t_dvl, v, t_imu, omega_b, f_b if at_stamps else None, v_b)
     if not ratio < KINEMATICS_JUDGE_RATIO:
         return ratio
@@ -569,8 +590,8 @@ def check_not_earth_frame(t_dvl: np.ndarray, v: np.ndarray, t_imu: np.ndarray, o
     judged = (f"{judged}: it is earth-fixed (NED/ENU)" if np.isfinite(kin) else
               "it looks earth-fixed (NED/ENU), or a vehicle slower than the current it moves in whose velocity the "
               "body kinematics could not judge (under two windows of pings)")
-    raise DataError(f"DVL velocity {said['said']} turns with the vehicle: {turn}; {judged}: {said['declare']}",
-                    source, field=", ".join(fields))
+    refuse_unless_declared(meta, source, fields, t_dvl, said, f"{turn}; {judged}")
+    return ratio
 
 
 def _kept_carried(meta: dict | None, source: str, fields: list[str], t_dvl: np.ndarray, said: dict, turn: str,
@@ -601,6 +622,22 @@ def _kept_carried(meta: dict | None, source: str, fields: list[str], t_dvl: np.n
                       stacklevel=5)
     meta[CARRIED] = True
     return True
+
+
+def refuse_unless_declared(meta: dict | None, source: str, fields: list[str], t_dvl: np.ndarray, said: dict,
+                           why: str) -> None:
+    """A velocity the frame checks find earth-fixed (``why`` says how): a DataError naming the file and columns, or,
+    its vehicle frame declared (``said["declared"]``, :func:`velocity_frame`), kept in that frame with a counted
+    warning (:data:`DECLARED_FRAME_DOUBT`) saying what the data suggest: the user knows how the DVL is mounted."""
+    if not (said.get("declared") and meta is not None):
+        keep = f"; if it is in the vehicle's frame, {said['keep']}" if said.get("keep") else ""
+        raise DataError(f"DVL velocity {said['said']} turns with the vehicle: {why}: {said['declare']}{keep}",
+                        source, field=", ".join(fields))
+    from graphnav.core.streams import say_doubted
+    say_doubted(meta, "dvl", source, f"field '{', '.join(fields)}': DVL velocity {said['said']} turns with the "
+                f"vehicle: {why}: kept in the {said['frame']} frame as declared; if it is earth-fixed, "
+                f"{said['declare']}", DECLARED_FRAME_DOUBT, len(t_dvl), stacklevel=3)
+    meta[KEPT_AS_DECLARED] = True
 
 
 def _judged(kin: float, limit: float, where: str = "") -> str:
@@ -648,8 +685,7 @@ def _check_spread(t_dvl: np.ndarray, v: np.ndarray, v_b: np.ndarray, t_imu: np.n
               "it looks earth-fixed (NED/ENU), or a vehicle slower than the current it moves in, which spreads so "
               "too and only the body kinematics tell apart: they could not judge it (under two windows of pings at "
               "both readings' best DVL clock offsets); put the DVL stamps on the IMU clock ('clock': 'imu')")
-    raise DataError(f"DVL velocity {said['said']} turns with the vehicle: {spread}; {judged}: "
-                    f"{said['declare']}", source, field=", ".join(fields))
+    refuse_unless_declared(meta, source, fields, t_dvl, said, f"{spread}; {judged}")
 
 
 def columns_to_body(t_dvl: np.ndarray, v: np.ndarray, euler: np.ndarray | None, spec: dict, C_d_b: np.ndarray,
