@@ -1360,3 +1360,32 @@ def test_a_level_rov_reversing_in_turns_is_not_given_its_imu_y_flipped_by_the_ti
     assert not caught, [str(w.message) for w in caught]
     np.testing.assert_allclose(got.imu.f_b, f_b, atol=1e-9)
     np.testing.assert_allclose(got.dvl.v_b, v_b, atol=1e-9)
+
+
+def test_a_gently_rolling_vehicle_with_its_imu_y_negated_still_has_it_found_and_turned(sim, tmp_path):
+    """A vehicle rolling and pitching 0.1 and 0.2 deg (median tilt rate 7e-4 rad/s, under GYRO_TILT_MIN_RADPS) whose
+    IMU y (accelerometer and gyro) is negated: its tilt kinematics fit the y flipped 9x better. Not judged at all
+    under that tilt rate, the y was kept and the log refused as an IMU turned 180 deg about z against the DVL; judged
+    there at a larger margin (a level vehicle's wrong fit: 1.2-1.3x), it is found and turned, with a warning."""
+    m, _, _ = sim
+    t_imu, f_b, omega_b, t, v_b = _slow_in_current(1, 0.4, 0.0, tilt_deg=(0.1, 0.2))
+    y_negated = np.array([1.0, -1.0, 1.0])
+    rolling = dataclasses.replace(m, imu=dataclasses.replace(m.imu, t=t_imu, f_b=f_b * y_negated,
+                                                             omega_b=omega_b * y_negated))
+    with pytest.warns(RuntimeWarning, match=r"they need axis signs \(1, -1, 1\)"):
+        got = _load(_folder(tmp_path, (rolling, t, None), v_b))
+    np.testing.assert_allclose(got.imu.omega_b, omega_b, atol=1e-9)
+    np.testing.assert_allclose(got.imu.f_b, f_b, atol=1e-9)
+
+
+def test_an_earth_fixed_velocity_declared_body_is_not_blamed_on_the_imu_alone(sim, tmp_path):
+    """The mission's NED velocity declared ``frame: body`` is kept with a warning by the frame checks; the IMU-turn
+    check then finds it fitting the IMU turned 90 deg about z (the vehicle's heading) and refused the log advising to
+    turn the IMU or the DVL. The refusal now says first that the velocity was kept in its declared frame against the
+    frame checks, and to declare its earth frame if it is earth-fixed."""
+    m, t, v_b = sim
+    v_n = np.einsum("kij,kj->ki", _euler_at(sim), v_b)
+    with pytest.warns(RuntimeWarning, match="kept in the body frame as declared"):
+        with pytest.raises(DataError, match=r"turned \d+ deg about z .*But the DVL velocity was kept in its declared "
+                                            r"vehicle frame though the frame checks found it earth-fixed"):
+            _load(_folder(tmp_path, sim, v_n, dvl_entry={"frame": "body"}))

@@ -25,7 +25,8 @@ from graphnav.core.dvl_kinematics import (WINDOW_S, centred, dvl_velocity_b, dvl
                                           without_window_fit)
 from graphnav.core.errors import DataError
 from graphnav.core.streams import add_note, count_doubted, say_doubted
-from graphnav.io.dvl_frame import CARRIED, COURSE_MIN_SPEED_MPS, check_not_earth_frame, velocity_frame
+from graphnav.io.dvl_frame import (CARRIED, COURSE_MIN_SPEED_MPS, KEPT_AS_DECLARED, check_not_earth_frame,
+                                  velocity_frame)
 from graphnav.io.units import (AKIT_DVL_FIXES, DECLARE_DVL_FIXES, GYRO_UNJUDGED, check_gyro_against_reference,
                                gyro_scale_found, other_unit_factors, unit_fix)
 
@@ -406,12 +407,12 @@ def check_imu_yaw(imu, dvl, config, meta: dict, frame: dict, model=None, offsets
         return
     q, yaw, q_next = imu_yaw_fit(model, imu, dvl, config, offsets)
     if carried and q >= IMU_YAW_MIN_Q:
-        raise _either_turned(imu, dvl, frame, q, yaw, float("nan"), carried)
+        raise _unless_declared_earth(meta, _either_turned(imu, dvl, frame, q, yaw, float("nan"), carried))
     course = _course(dvl, config) if q >= IMU_YAW_MIN_Q else 0.0
     if not _forward(course):
         if _forward(np.angle(np.exp(1j * (course - np.deg2rad(yaw))))):
             return yaw      # the DVL is the one turned (turned back, its velocity points forward)
-        raise _either_turned(imu, dvl, frame, q, yaw, course)
+        raise _unless_declared_earth(meta, _either_turned(imu, dvl, frame, q, yaw, course))
     if abs(q) < IMU_YAW_MIN_Q:
         add_note(meta, "imu", f"its mounting about z not judged against the DVL: the velocity changes tell the axes "
                               f"as read from the IMU turned {yaw} deg by {q:+.0f} noise variances ({IMU_YAW_MIN_Q:g} "
@@ -420,11 +421,24 @@ def check_imu_yaw(imu, dvl, config, meta: dict, frame: dict, model=None, offsets
     if q < 0:
         return 0            # judged: the velocity fits the IMU as read
     other = "" if q_next >= IMU_YAW_MIN_Q else f" (or another quarter turn: the next fits {q_next:.0f} worse)"
-    raise DataError(f"the IMU's axes are turned {yaw} deg about z{other} against {frame['what']}: the DVL velocity "
-                    f"(pointing forward, in the body frame) fits the accelerometer and gyro better by {q:.3g} noise "
-                    f"variances with them turned ({IMU_YAW_MIN_Q:g} needed). The IMU is mounted turned against the "
-                    f"body frame ({mounting_text(turn_about_z(yaw))}): {_imu_turn_fix(yaw, frame)}", imu.source,
-                    field=frame["fields"])
+    raise _unless_declared_earth(meta, DataError(
+        f"the IMU's axes are turned {yaw} deg about z{other} against {frame['what']}: the DVL velocity (pointing "
+        f"forward, in the body frame) fits the accelerometer and gyro better by {q:.3g} noise variances with them "
+        f"turned ({IMU_YAW_MIN_Q:g} needed). The IMU is mounted turned against the body frame "
+        f"({mounting_text(turn_about_z(yaw))}): {_imu_turn_fix(yaw, frame)}", imu.source, field=frame["fields"]))
+
+
+def _unless_declared_earth(meta: dict, exc: DataError) -> DataError:
+    """``exc``, a turn between the IMU and the DVL, saying first that the DVL velocity was kept in its declared vehicle
+    frame against the frame checks (:data:`~graphnav.io.dvl_frame.KEPT_AS_DECLARED`): an earth-fixed velocity declared
+    body fits the IMU turned by the vehicle's heading, and its frame, not the IMU, is then what to fix."""
+    if not meta.get(KEPT_AS_DECLARED):
+        return exc
+    return DataError(f"{exc.message}. But the DVL velocity was kept in its declared vehicle frame though the frame "
+                     f"checks found it earth-fixed (the warning on the DVL stream): an earth-fixed velocity declared "
+                     f"in the vehicle's frame fits the IMU turned by the vehicle's heading; if it is earth-fixed, "
+                     f"declare its earth frame as that warning says, and the IMU needs no turn", exc.source,
+                     field=exc.field)
 
 
 def warn_dvl_turned(dvl, meta: dict, field: str, yaw: int | None, fixes: dict | None = None) -> None:
