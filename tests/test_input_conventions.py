@@ -312,6 +312,8 @@ def test_the_dvl_noise_estimate_skips_second_differences_across_dropped_pings():
 
     def noise(tt, vv):
         n = len(tt) // 10 * 10
-        return velocity_change_rms(SimpleNamespace(t=tt[:n].reshape(-1, 10), v=vv[:n].reshape(-1, 10, 3)))[1]
+        t_w = tt[:n].reshape(-1, 10)
+        model = SimpleNamespace(t=t_w, v=vv[:n].reshape(-1, 10, 3), real=np.ones(t_w.shape, bool))
+        return velocity_change_rms(model)[1]
     full, dropped = noise(t, v), noise(t[keep], v[keep])
     assert 0.005 < full < 0.02 and 0.5 < dropped / full < 1.5
