@@ -15,6 +15,7 @@ from graphnav.core.dvl_kinematics import dvl_velocity_b
 from graphnav.core.config import SensorConfig
 from graphnav.core.errors import ConfigError, DataError
 from graphnav.core.rotations import C_b_n_to_euler
+from graphnav.io import dvl_frame
 from graphnav.io.dvl_frame import FRAME_DOUBT
 from graphnav.missions import load_mission
 from graphnav.sim.simulate import simulate_mission
@@ -91,13 +92,39 @@ def test_an_earth_frame_velocity_is_refused_undeclared_and_turned_back_declared(
         np.testing.assert_allclose(got.dvl.v_b, v_b, atol=1e-8)
 
 
+def test_a_body_frame_velocity_declared_ned_is_refused_naming_the_key_and_body(sim, tmp_path):
+    """Body-frame velocity columns declared ``frame: ned`` (with the DVL's attitude columns) were turned by the heading
+    into a velocity 3.0 m/s RMS off and loaded silently. Turned to body they turn with the vehicle (ratio 0.1-0.7 on
+    such copies), and the body kinematics explain the columns as read far better: refused naming the file, the columns,
+    the key and ``body``. The true NED copy still loads, exactly."""
+    m, t, v_b = sim
+    C_b_n = _euler_at(sim)
+    euler = np.degrees(C_b_n_to_euler(C_b_n))
+    cols = {"roll": euler[:, 0], "pitch": euler[:, 1], "yaw": euler[:, 2]}
+    entry = {"frame": "ned", "euler": list(cols), "angle_unit": "deg"}
+    with pytest.raises(DataError, match=r"DVL velocity declared in the ned frame, turned to body with the attitude "
+                                        r"columns \['roll', 'pitch', 'yaw'\], turns with the vehicle: .* leave "
+                                        r"(\d+\.\d\d)x .* are vehicle-fixed: they are in the vehicle's frame, "
+                                        r"not the ned frame: declare csv_columns\.dvl\.frame 'body'") as err:
+        _load(_folder(tmp_path, sim, v_b, entry, cols))
+    assert "dvl.csv" in str(err.value) and "vx, vy, vz" in str(err.value)
+    assert float(re.search(r"leave (\d+\.\d\d)x", str(err.value)).group(1)) > 1.5
+    v_n = np.einsum("kij,kj->ki", C_b_n, v_b)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        got = _load(_folder(tmp_path, sim, v_n, entry, cols))
+    np.testing.assert_allclose(got.dvl.v_b, v_b, atol=1e-8)
+    assert not got.meta["streams"]["dvl"].get("doubted")
+
+
 def _slow_in_current(seed, speed, current, duration=300.0, noise=0.01, sideways=False, ned=False, tilt_deg=(2.0, 3.0),
-                     reverse_at=None):
+                     reverse_at=None, with_attitude=False):
     """A level-ish vehicle at ``speed`` m/s through the water, turning at up to 3 deg/s, in a steady ``current`` m/s:
     the IMU (100 Hz, samples the increments over each step) and the DVL's body-frame velocity over the ground (1 Hz,
     ``noise`` m/s), exact kinematics; ``sideways``: moving along its y (a crabbing ROV); ``tilt_deg``: its roll and
     pitch swings; ``reverse_at``: the time (s) it turns from ``speed`` forward to as fast backward (over about 10 s).
-    Returns (t_imu, f_b, omega_b, t_dvl, v_b), and with ``ned`` the same velocity in NED (M,3) too."""
+    Returns (t_imu, f_b, omega_b, t_dvl, v_b), and with ``ned`` the same velocity in NED (M,3) too, and with
+    ``with_attitude`` the vehicle's roll, pitch and heading at each ping (M,3, deg) last."""
     from scipy.spatial.transform import Rotation
 
     from graphnav.core.rotations import euler_to_C_b_n
@@ -128,7 +155,8 @@ def _slow_in_current(seed, speed, current, duration=300.0, noise=0.01, sideways=
     v_b = np.einsum("kji,kj->ki", C[ping], v_n[ping]) + rng.normal(0.0, noise, (len(ping), 3))
     out = t[:-1], f_b + rng.normal(0.0, 0.005, f_b.shape), omega_b + rng.normal(0.0, 1e-4, omega_b.shape), \
         t[ping], v_b
-    return (*out, np.einsum("kij,kj->ki", C[ping], v_b)) if ned else out
+    out = (*out, np.einsum("kij,kj->ki", C[ping], v_b)) if ned else out
+    return (*out, np.degrees(C_b_n_to_euler(C[ping]))) if with_attitude else out
 
 
 @pytest.mark.parametrize("seed, speed, current", [(0, 0.3, 0.5), (1, 0.2, 1.0), (2, 0.0, 0.3)])
@@ -157,6 +185,40 @@ def test_a_slow_vehicle_in_a_current_is_kept_as_body_and_an_earth_frame_copy_sti
     _, t_sim, v_sim = sim
     with pytest.raises(DataError, match=r"it is earth-fixed \(NED/ENU\)"):
         _load(_folder(tmp_path, sim, np.einsum("kij,kj->ki", _euler_at(sim), v_sim)))
+
+
+@pytest.mark.parametrize("seed, speed, current, noise, refused", [(0, 0.3, 0.5, 0.01, True),
+                                                                   (0, 0.4, 0.3, 0.05, False)])
+def test_a_slow_vehicle_s_body_frame_velocity_declared_ned_is_refused_or_warned_about(sim, tmp_path, seed, speed,
+                                                                                       current, noise, refused):
+    """A slow vehicle in a current, its body-frame velocity columns declared ``frame: ned`` with its attitude: loaded
+    silently 0.8-0.9 m/s off. Turned to body they turn with the vehicle; the body kinematics leave 2.4x (0.01 m/s of
+    noise) what they leave of the columns read as body: refused naming the key and ``body``; 1.07x (0.05 m/s), beyond
+    the noise but not clearly: kept, warned about and counted. The true NED copies load as before, without a warning:
+    the velocity turned to body, turning with the vehicle as a slow one's does, is kept by the kinematics."""
+    m, _, _ = sim
+    t_imu, f_b, omega_b, t, v_b, v_n, euler = _slow_in_current(seed, speed, current, noise=noise, ned=True,
+                                                               with_attitude=True)
+    m_slow = dataclasses.replace(m, imu=dataclasses.replace(m.imu, t=t_imu, f_b=f_b, omega_b=omega_b))
+    cols = {"roll": euler[:, 0], "pitch": euler[:, 1], "yaw": euler[:, 2]}
+    entry = {"frame": "ned", "euler": list(cols), "angle_unit": "deg"}
+    said = (r"dvl.csv: field 'vx, vy, vz': DVL velocity declared in the ned frame, turned to body with the attitude "
+            r"columns \['roll', 'pitch', 'yaw'\], turns with the vehicle: .*")
+    if refused:
+        with pytest.raises(DataError, match=r"are vehicle-fixed: they are in the vehicle's frame, not the ned frame: "
+                                            r"declare csv_columns\.dvl\.frame 'body'"):
+            _load(_folder(tmp_path, (m_slow, t, None), v_b, entry, cols))
+    else:
+        with pytest.warns(RuntimeWarning, match=said + r"kept in the ned frame as declared; if the columns are in the "
+                                                       r"vehicle's frame, declare csv_columns\.dvl\.frame 'body'"):
+            got = _load(_folder(tmp_path, (m_slow, t, None), v_b, entry, cols))
+        assert got.meta["streams"]["dvl"]["doubted"][dvl_frame.DECLARED_EARTH_DOUBT] == len(t)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        got = _load(_folder(tmp_path, (m_slow, t, None), v_n, entry, cols))
+    assert not [str(w.message) for w in caught if "turns with the vehicle" in str(w.message)
+                or "cannot tell" in str(w.message)]
+    np.testing.assert_allclose(got.dvl.v_b, v_b, atol=1e-8)
 
 
 def test_a_slow_vehicle_whose_velocity_noise_turns_it_more_than_it_turns_is_kept_as_body(sim, tmp_path):

@@ -25,8 +25,8 @@ from graphnav.core.dvl_kinematics import (WINDOW_S, centred, dvl_velocity_b, dvl
                                           without_window_fit)
 from graphnav.core.errors import DataError
 from graphnav.core.streams import add_note, count_doubted, say_doubted
-from graphnav.io.dvl_frame import (CARRIED, COURSE_MIN_SPEED_MPS, KEPT_AS_DECLARED, check_not_earth_frame,
-                                  velocity_frame)
+from graphnav.io.dvl_frame import (CARRIED, COURSE_MIN_SPEED_MPS, EARTH_FRAMES, KEPT_AS_DECLARED,
+                                  check_not_earth_frame, velocity_frame)
 from graphnav.io.units import (AKIT_DVL_FIXES, DECLARE_DVL_FIXES, GYRO_UNJUDGED, check_gyro_against_reference,
                                gyro_scale_found, other_unit_factors, unit_fix)
 
@@ -431,9 +431,17 @@ def check_imu_yaw(imu, dvl, config, meta: dict, frame: dict, model=None, offsets
 def _unless_declared_earth(meta: dict, exc: DataError) -> DataError:
     """``exc``, a turn between the IMU and the DVL, saying first that the DVL velocity was kept in its declared vehicle
     frame against the frame checks (:data:`~graphnav.io.dvl_frame.KEPT_AS_DECLARED`): an earth-fixed velocity declared
-    body fits the IMU turned by the vehicle's heading, and its frame, not the IMU, is then what to fix."""
-    if not meta.get(KEPT_AS_DECLARED):
+    body fits the IMU turned by the vehicle's heading, and its frame, not the IMU, is then what to fix; so does a
+    vehicle-fixed velocity declared in an earth frame, which its attitude columns turn by the heading."""
+    kept = meta.get(KEPT_AS_DECLARED)
+    if not kept:
         return exc
+    if kept in EARTH_FRAMES:
+        return DataError(f"{exc.message}. But the DVL velocity was kept in its declared {kept} frame though, turned "
+                         f"to body by its attitude columns, it turns with the vehicle (the warning on the DVL stream): "
+                         f"a vehicle-fixed velocity declared earth-fixed, turned by the vehicle's heading, fits the "
+                         f"IMU turned; if the columns are in the vehicle's frame, declare csv_columns.dvl.frame 'body' "
+                         f"as that warning says, and the IMU needs no turn", exc.source, field=exc.field)
     return DataError(f"{exc.message}. But the DVL velocity was kept in its declared vehicle frame though the frame "
                      f"checks found it earth-fixed (the warning on the DVL stream): an earth-fixed velocity declared "
                      f"in the vehicle's frame fits the IMU turned by the vehicle's heading; if it is earth-fixed, "

@@ -41,7 +41,10 @@ warning.
 These judge a frame taken with none declared. A vehicle frame the user declared (``csv_columns.dvl.frame``, a bag's
 ``bag_topics.dvl.frame``) is taken: where the checks find the velocity earth-fixed, it is kept in that frame with a
 counted warning saying what they found (:func:`refuse_unless_declared`, :data:`DECLARED_FRAME_DOUBT`); their refusals
-of an undeclared frame say so.
+of an undeclared frame say so. A declared earth frame is judged as a vehicle frame is, turned to body by its attitude
+columns: vehicle-fixed columns declared earth-fixed, turned by the heading, turn with the vehicle as an earth-fixed
+velocity read as body does. Where the body kinematics say so clearly (:data:`DECLARED_EARTH_REFUSED`) it is refused
+naming ``csv_columns.dvl.frame`` and ``body``; else kept with a counted warning (:data:`DECLARED_EARTH_DOUBT`).
 """
 from __future__ import annotations
 
@@ -102,8 +105,24 @@ FRAME_DOUBT = "DVL velocity kept in the vehicle's frame, which its turns and kin
 #: Why DVL pings kept in a vehicle frame the user declared are counted as doubted where the frame checks say the
 #: velocity is earth-fixed: a declared frame is taken (the user knows the mounting), the data's contrary word said.
 DECLARED_FRAME_DOUBT = "DVL velocity kept in its declared vehicle frame, though its turns say it is earth-fixed"
-#: The ``meta`` key set when a declared vehicle frame was kept against the frame checks: said once, not again by the
-#: prepare step's check.
+#: Why DVL pings declared in an earth frame are counted as doubted where, turned to body by their attitude columns,
+#: the frame checks say they turn with the vehicle, but the body kinematics do not say so clearly
+#: (:data:`DECLARED_EARTH_REFUSED`): the columns may be in the vehicle's frame.
+DECLARED_EARTH_DOUBT = ("DVL velocity kept in its declared earth frame, though turned to body by its attitude it "
+                        "turns with the vehicle")
+#: :func:`kinematics_ratio` of a velocity declared in an earth frame, turned to body by its attitude columns and found
+#: turning with the vehicle, at or over which (and twice the margin its noise allows, :func:`_kinematics`) it is
+#: refused: the columns read as body (its earth reading, turned back by the gyro's heading) are what the body
+#: kinematics explain. Measured on the IMU clock where the turn check finds the turned velocity turning with the
+#: vehicle (docs/decisions/dvl-frame.md): body-frame columns declared ned, A-KIT whole and 60-200 s crops 1.11-246
+#: (Trajectory13's crops from 200 s 1.11 and 1.39, the rest 1.7 and above but one whose noise hides its turns),
+#: simulated missions 1.50-1.76, slow vehicles in currents 1.07-2.37; true NED copies there, A-KIT crops 0.045 and 0.99,
+#: slow vehicles 0.59-1.04 (their noise limits 1.04). Loaded, of 115 body copies declared ned 102 are refused so and 3
+#: warned about; of their 115 true NED copies none is refused or warned about by this (2 slow, noisy vehicles carry
+#: the "cannot tell" FRAME_DOUBT warning their body copies carry).
+DECLARED_EARTH_REFUSED = 1.3
+#: The ``meta`` key set when a declared frame was kept against the frame checks (the frame's name): said once, not
+#: again by the prepare step's check.
 KEPT_AS_DECLARED = "dvl_frame_kept_as_declared"
 #: Windows :func:`_own_offsets`' coarse scan scores at each offset (the clock search's 60 cost 1.6x as much on long
 #: logs). Measured (docs/decisions/dvl-frame.md): logs up to 600 s have fewer; 5400 s slow vehicles a day off and their
@@ -427,18 +446,36 @@ _BAG_DECLARE = ("republish it in the DVL's or the vehicle's frame (bag_topics.dv
                 "flu: an earth frame needs the head's attitude at each ping)")
 
 
+#: What to do with a velocity declared in an earth frame that, turned to body by its attitude columns, turns with the
+#: vehicle: its columns are in the vehicle's frame (or the attitude columns are not the DVL's).
+_DECLARE_VEHICLE = ("declare csv_columns.dvl.frame 'body' (or the vehicle frame the columns are in: 'flu', "
+                    "'instrument'), or check the attitude columns ('euler', 'angle_unit') are the DVL's roll, pitch "
+                    "and heading")
+
+
 def _said(spec: dict) -> str:
     """How a column map's DVL velocity (``csv_columns.dvl`` ``spec``) got its frame, as the frame messages say it."""
     frame = declared_frame(spec)
     if "v_b" not in spec:
         return f"solved from the beam columns (on the configured geometry) in the {frame} frame"
+    if frame in EARTH_FRAMES:
+        return f"declared in the {frame} frame, turned to body with the attitude columns {list(spec.get('euler', []))},"
     how = "declared" if "frame" in spec else "taken (no 'frame' in csv_columns.dvl)"
     return f"{how} in the {frame} frame"
 
 
 def _column_frame(spec: dict) -> dict:
-    return {"frame": declared_frame(spec), "said": _said(spec), "declare": _DECLARE, "declared": "frame" in spec,
+    frame = declared_frame(spec)
+    if frame in EARTH_FRAMES:
+        return {"frame": frame, "said": _said(spec), "declare": _DECLARE_VEHICLE, "declared": True,
+                "otherwise": f"if the columns are in the vehicle's frame, {_DECLARE_VEHICLE}"}
+    return {"frame": frame, "said": _said(spec), "declare": _DECLARE, "declared": "frame" in spec,
             "keep": _KEEP.format(key="csv_columns.dvl")}
+
+
+def _otherwise(said: dict) -> str:
+    """What to do if the frame kept (``said``, :func:`velocity_frame`) is wrong, as the frame warnings end."""
+    return said.get("otherwise") or f"if it is earth-fixed, {said['declare']}"
 
 
 def velocity_frame(config, meta: dict) -> dict:
@@ -577,8 +614,7 @@ def check_not_earth_frame(t_dvl: np.ndarray, v: np.ndarray, t_imu: np.ndarray, o
                           f"an earth frame: the vehicle turns only {signal:.2f}x the noise of its direction over "
                           f"{COURSE_WINDOW_S:g} s windows (the turn ratio {ratio:.2f}"
                           f"{', the kinematics ' + format(kin, '.2f') if np.isfinite(kin) else ''} say nothing "
-                          f"under {MIN_TURN_SIGNAL:g}x): kept in the {said['frame']} frame; if it is earth-fixed, "
-                          f"{said['declare']}")
+                          f"under {MIN_TURN_SIGNAL:g}x): kept in the {said['frame']} frame; {_otherwise(said)}")
         return ratio
     if own_offsets and f_b is not None:
         kin, limit, *offsets = _own_offsets(t_dvl, v if v_b is None else v_b, t_imu, f_b, omega_b)
@@ -588,10 +624,10 @@ def check_not_earth_frame(t_dvl: np.ndarray, v: np.ndarray, t_imu: np.ndarray, o
                 meta[OFF_ITS_STAMPS] = True
             return ratio
         judged = _judged(kin, limit, where)
-    judged = (f"{judged}: it is earth-fixed (NED/ENU)" if np.isfinite(kin) else
+    judged = (f"{judged}: {_verdict(said)}" if np.isfinite(kin) else
               "it looks earth-fixed (NED/ENU), or a vehicle slower than the current it moves in whose velocity the "
               "body kinematics could not judge (under two windows of pings)")
-    refuse_unless_declared(meta, source, fields, t_dvl, said, f"{turn}; {judged}")
+    refuse_unless_declared(meta, source, fields, t_dvl, said, f"{turn}; {judged}", kin, limit)
     return ratio
 
 
@@ -619,26 +655,43 @@ def _kept_carried(meta: dict | None, source: str, fields: list[str], t_dvl: np.n
                       f"({turn}), and the body kinematics leave {kin:.3f}x what they leave of it taken as earth-fixed"
                       f"{where}: over {BODY_KINEMATICS_RATIO:g}, but under {limit:.3f}, what its noise allows over "
                       f"{len(t_dvl)} pings, so a vehicle slower than the current it moves in and an earth-fixed "
-                      f"velocity fit alike: kept in the {said['frame']} frame; if it is earth-fixed, {said['declare']}",
+                      f"velocity fit alike: kept in the {said['frame']} frame; {_otherwise(said)}",
                       stacklevel=5)
     meta[CARRIED] = True
     return True
 
 
 def refuse_unless_declared(meta: dict | None, source: str, fields: list[str], t_dvl: np.ndarray, said: dict,
-                           why: str) -> None:
-    """A velocity the frame checks find earth-fixed (``why`` says how): a DataError naming the file and columns, or,
-    its vehicle frame declared (``said["declared"]``, :func:`velocity_frame`), kept in that frame with a counted
-    warning (:data:`DECLARED_FRAME_DOUBT`) saying what the data suggest: the user knows how the DVL is mounted."""
+                           why: str, kin: float = float("nan"), limit: float = float("nan")) -> None:
+    """A velocity the frame checks find earth-fixed (``why`` says how; ``kin``: the :func:`kinematics_ratio` they
+    judged it by and ``limit`` the ratio its noise allows, NaN where none): a DataError naming the file and columns,
+    or, its vehicle frame declared (``said["declared"]``, :func:`velocity_frame`), kept in that frame with a counted
+    warning (:data:`DECLARED_FRAME_DOUBT`) saying what the data suggest: the user knows how the DVL is mounted. A
+    velocity declared in an earth frame is judged turned to body by its attitude columns: one that still turns with the
+    vehicle is in the vehicle's frame as read, refused where the body kinematics say so clearly (from
+    :data:`DECLARED_EARTH_REFUSED`, and twice the margin its noise allows: naming ``csv_columns.dvl.frame`` and what to
+    declare), else kept as declared with a counted warning (:data:`DECLARED_EARTH_DOUBT`)."""
+    earth = said["frame"] in EARTH_FRAMES
+    if earth and kin >= DECLARED_EARTH_REFUSED and kin - 1.0 >= 2.0 * (limit - 1.0):
+        raise DataError(f"DVL velocity {said['said']} turns with the vehicle: {why}: they are in the vehicle's "
+                        f"frame, not the {said['frame']} frame: {said['declare']}", source, field=", ".join(fields))
     if not (said.get("declared") and meta is not None):
         keep = f"; if it is in the vehicle's frame, {said['keep']}" if said.get("keep") else ""
         raise DataError(f"DVL velocity {said['said']} turns with the vehicle: {why}: {said['declare']}{keep}",
                         source, field=", ".join(fields))
     from graphnav.core.streams import say_doubted
     say_doubted(meta, "dvl", source, f"field '{', '.join(fields)}': DVL velocity {said['said']} turns with the "
-                f"vehicle: {why}: kept in the {said['frame']} frame as declared; if it is earth-fixed, "
-                f"{said['declare']}", DECLARED_FRAME_DOUBT, len(t_dvl), stacklevel=3)
-    meta[KEPT_AS_DECLARED] = True
+                f"vehicle: {why}: kept in the {said['frame']} frame as declared; {_otherwise(said)}",
+                DECLARED_EARTH_DOUBT if earth else DECLARED_FRAME_DOUBT, len(t_dvl), stacklevel=3)
+    meta[KEPT_AS_DECLARED] = said["frame"]
+
+
+def _verdict(said: dict) -> str:
+    """What the body kinematics found of a velocity they refuse, in the frame ``said`` (:func:`velocity_frame`): read
+    in a vehicle frame, earth-fixed; declared in an earth frame and turned to body, vehicle-fixed as read."""
+    if said["frame"] in EARTH_FRAMES:
+        return "the columns as read (its earth reading, turned back by the vehicle's heading) are vehicle-fixed"
+    return "it is earth-fixed (NED/ENU)"
 
 
 def _judged(kin: float, limit: float, where: str = "") -> str:
@@ -682,19 +735,20 @@ def _check_spread(t_dvl: np.ndarray, v: np.ndarray, v_b: np.ndarray, t_imu: np.n
     where = _at_own_offsets(*offsets)
     if _kept_carried(meta, source, fields, t_dvl, said, spread, kin, limit, where):
         return
-    judged = (f"{_judged(kin, limit, where)}: it is earth-fixed (NED/ENU)" if np.isfinite(kin) else
+    judged = (f"{_judged(kin, limit, where)}: {_verdict(said)}" if np.isfinite(kin) else
               "it looks earth-fixed (NED/ENU), or a vehicle slower than the current it moves in, which spreads so "
               "too and only the body kinematics tell apart: they could not judge it (under two windows of pings at "
               "both readings' best DVL clock offsets); put the DVL stamps on the IMU clock ('clock': 'imu')")
-    refuse_unless_declared(meta, source, fields, t_dvl, said, f"{spread}; {judged}")
+    refuse_unless_declared(meta, source, fields, t_dvl, said, f"{spread}; {judged}", kin, limit)
 
 
 def columns_to_body(t_dvl: np.ndarray, v: np.ndarray, euler: np.ndarray | None, spec: dict, C_d_b: np.ndarray,
                     t_imu: np.ndarray, omega_b: np.ndarray, source: str, meta: dict, f_b: np.ndarray | None = None,
                     envelope=None, given_offset_s: float = 0.0) -> np.ndarray:
     """A column map's DVL velocity (M,3), m/s, in its declared ``frame`` turned to the body frame; a velocity in a
-    vehicle frame checked not to be earth-fixed (:func:`check_not_earth_frame`); the frame noted in
-    ``meta["streams"]["dvl"]``.
+    vehicle frame checked not to be earth-fixed (:func:`check_not_earth_frame`), one in an earth frame checked so once
+    turned to body by its attitude columns (vehicle-fixed columns turned by the heading turn with the vehicle); the
+    frame noted in ``meta["streams"]["dvl"]``.
 
     Args:
         t_dvl: (M,) stamps, s. v: (M,3) the ``v_b`` columns in m/s. euler: (M,3) the entry's ``euler`` columns
@@ -710,7 +764,8 @@ def columns_to_body(t_dvl: np.ndarray, v: np.ndarray, euler: np.ndarray | None, 
 
     Raises:
         ConfigError: an earth frame without attitude columns or their unit.
-        DataError: a vehicle-frame velocity that turns with the vehicle.
+        DataError: a vehicle-frame velocity that turns with the vehicle; an earth-frame one that, turned to body,
+            clearly does (:func:`refuse_unless_declared`).
     """
     from graphnav.core.streams import add_note
     from graphnav.core.timeseries import on_the_imu_clock
@@ -718,31 +773,36 @@ def columns_to_body(t_dvl: np.ndarray, v: np.ndarray, euler: np.ndarray | None, 
     frame = said["frame"]
     fields = list(spec["v_b"])
     meta.setdefault("stream_fields", {})["dvl"] = ", ".join(fields)     # named by a later check of the velocity
-    if frame not in EARTH_FRAMES:
-        v_b = np.where(rdi_flagged(v).any(axis=1, keepdims=True), np.nan, velocity_to_body(v, frame, C_d_b))
-        if on_the_imu_clock(t_dvl, t_imu):
-            declared = {"unit": spec["velocity_unit"], "key": "csv_columns.dvl.velocity_unit"} \
-                if spec.get("velocity_unit") else None
-            # judged at the given offset, which prepare adds; at the stamps as read only when they are known to be on
-            # the IMU clock, else each reading also at its own best offset where the stamps would refuse it
-            given = on_the_imu_clock(t_dvl + given_offset_s, t_imu)
-            t_at = t_dvl + given_offset_s if given else t_dvl
-            known = spec.get("clock", "auto") == "imu" and given
-            check_not_earth_frame(t_at, v, t_imu, omega_b, source, fields, said, f_b, v_b, meta, declared, envelope,
-                                  own_offsets=not known, at_stamps=True)
-        else:
-            _check_spread(t_dvl, v, v_b, t_imu, omega_b, source, fields, said, f_b, meta)
-            if not meta.get(CARRIED):
-                add_note(meta, "dvl", "checked for an earth-frame velocity once on the IMU clock (a clock of its own)")
-        if frame == "body":
-            return v
+    if frame in EARTH_FRAMES:
+        unit = spec.get("angle_unit")
+        if euler is None or unit not in ANGLE_UNITS:
+            raise ConfigError(f"csv_columns.dvl.frame = {frame!r}: an earth-frame velocity is turned back to the DVL "
+                              "frame with the DVL's own attitude at each ping: give 'euler' (3 columns of the DVL "
+                              f"file: roll, pitch, heading) and 'angle_unit' ({' or '.join(ANGLE_UNITS)})")
+        euler = euler * ANGLE_UNITS[unit]
+    v_b = np.where(rdi_flagged(v).any(axis=1, keepdims=True), np.nan, velocity_to_body(v, frame, C_d_b, euler))
+    # an earth frame is judged turned to body: a vehicle-fixed velocity declared earth-fixed, turned by the heading,
+    # turns with the vehicle as an earth-fixed one declared body does
+    v_judged = v_b if frame in EARTH_FRAMES else v
+    if on_the_imu_clock(t_dvl, t_imu):
+        declared = {"unit": spec["velocity_unit"], "key": "csv_columns.dvl.velocity_unit"} \
+            if spec.get("velocity_unit") else None
+        # judged at the given offset, which prepare adds; at the stamps as read only when they are known to be on
+        # the IMU clock, else each reading also at its own best offset where the stamps would refuse it
+        given = on_the_imu_clock(t_dvl + given_offset_s, t_imu)
+        t_at = t_dvl + given_offset_s if given else t_dvl
+        known = spec.get("clock", "auto") == "imu" and given
+        check_not_earth_frame(t_at, v_judged, t_imu, omega_b, source, fields, said, f_b, v_b, meta, declared,
+                              envelope, own_offsets=not known, at_stamps=True)
+    else:
+        _check_spread(t_dvl, v_judged, v_b, t_imu, omega_b, source, fields, said, f_b, meta)
+        if not meta.get(CARRIED):
+            add_note(meta, "dvl", "checked for an earth-frame velocity once on the IMU clock (a clock of its own)")
+    if frame == "body":
+        return v
+    if frame in EARTH_FRAMES:
+        add_note(meta, "dvl", f"velocity columns {fields} in the {frame} frame turned to the DVL frame with the "
+                              f"attitude columns {list(spec['euler'])}, then to body by dvl.C_d_b")
+    else:
         add_note(meta, "dvl", f"velocity columns {fields} in the {frame} frame turned to body (FRD)")
-        return flagged_not_turned(v, velocity_to_body(v, frame, C_d_b))
-    unit = spec.get("angle_unit")
-    if euler is None or unit not in ANGLE_UNITS:
-        raise ConfigError(f"csv_columns.dvl.frame = {frame!r}: an earth-frame velocity is turned back to the DVL "
-                          "frame with the DVL's own attitude at each ping: give 'euler' (3 columns of the DVL "
-                          f"file: roll, pitch, heading) and 'angle_unit' ({' or '.join(ANGLE_UNITS)})")
-    add_note(meta, "dvl", f"velocity columns {fields} in the {frame} frame turned to the DVL frame with the "
-                          f"attitude columns {list(spec['euler'])}, then to body by dvl.C_d_b")
-    return flagged_not_turned(v, velocity_to_body(v, frame, C_d_b, euler * ANGLE_UNITS[unit]))
+    return flagged_not_turned(v, velocity_to_body(v, frame, C_d_b, euler))
