@@ -971,6 +971,20 @@ def test_an_earth_frame_velocity_on_a_clock_of_its_own_is_refused_before_the_clo
     assert m.config.dvl_time_offset_s == pytest.approx(86400.0, abs=0.1)
 
 
+def test_an_earth_frame_velocity_too_short_for_the_kinematics_is_given_two_pieces_of_advice(akit_dir, tmp_path):
+    """An NED velocity of 30 s a day off: its direction spreads as the heading does and the body kinematics cannot
+    judge it (under two windows). The refusal's advice ran together ("('clock': 'imu'): declare ... 'ned'"): it now
+    gives the clock and the frame each with its condition."""
+    with pytest.raises(DataError, match=r"spreads 1\.14x as much as the gyro's heading.*could not judge it \(under two "
+                                        r"windows of pings at both readings' best DVL clock offsets\): if the DVL "
+                                        r"clock's offset from the IMU's is known, give it \(dvl_time_offset_s; "
+                                        r"csv_columns\.dvl\.clock 'imu' where the stamps are on the IMU clock\) and the "
+                                        r"body kinematics judge it; if it is earth-fixed, declare csv_columns\.dvl\."
+                                        r"frame 'ned' or 'enu' .*; if it is in the vehicle's frame, declare "
+                                        r"csv_columns\.dvl\.frame \('body'"):
+        _load(_akit_log_on_its_own_clock(akit_dir, tmp_path / "earth", 30.0, earth=True))
+
+
 @pytest.mark.parametrize("seed, speed, current, judged", [
     (0, 0.3, 0.6, rf"spreads .* \(as body {_A_DAY}, "), (0, 0.2, 0.6, rf"spreads .* \(as body {_A_DAY}, "),
     (0, 0.2, 0.3, r"turn minus the gyro's .* \(as body [+-]0\.\d+ s, .*, added to the stamps the clock search")])

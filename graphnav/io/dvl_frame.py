@@ -686,7 +686,12 @@ def _check_spread(t_dvl: np.ndarray, v: np.ndarray, v_b: np.ndarray, t_imu: np.n
     judged = (f"{_judged(kin, limit, where)}: it is earth-fixed (NED/ENU)" if np.isfinite(kin) else
               "it looks earth-fixed (NED/ENU), or a vehicle slower than the current it moves in, which spreads so "
               "too and only the body kinematics tell apart: they could not judge it (under two windows of pings at "
-              "both readings' best DVL clock offsets); put the DVL stamps on the IMU clock ('clock': 'imu')")
+              "both readings' best DVL clock offsets)")
+    if not np.isfinite(kin) and not said.get("declared"):
+        # two pieces of advice, each with its condition: the clock lets the kinematics judge, the frame is the fix
+        said = {**said, "declare": "if the DVL clock's offset from the IMU's is known, give it (dvl_time_offset_s; "
+                                   "csv_columns.dvl.clock 'imu' where the stamps are on the IMU clock) and the body "
+                                   f"kinematics judge it; if it is earth-fixed, {said['declare']}"}
     refuse_unless_declared(meta, source, fields, t_dvl, said, f"{spread}; {judged}")
 
 
