@@ -578,6 +578,25 @@ def test_a_dvl_too_broken_up_for_its_clock_is_refused_naming_the_gaps_not_the_no
     assert err.value.source.endswith("dvl.csv") and "inf" not in str(err.value) and "noise" not in str(err.value)
 
 
+def test_a_dvl_too_broken_up_for_its_clock_is_told_to_give_its_offset_by_hand(sim600, tmp_path):
+    """The "too broken up" refusal named the gaps but gave no advice: no search can find the clock, the user can give
+    it (dvl_time_offset_s), with which the same log loads at that offset."""
+    m, t, v_b = sim600
+    keep = _outages(t, 30.0, 26.0)
+    folder = _folder(tmp_path, (m, t[keep], v_b[keep]), v_b[keep], {"clock": "auto"}, shift=86400.0)
+    with pytest.raises(DataError, match=r"too broken up to find its clock: .* on the IMU span: give the DVL clock's "
+                                        r"offset by hand \(dvl_time_offset_s, s added to the DVL stamps\) if it is "
+                                        r"known$"):
+        _load(folder)
+    cfg = json.loads(folder[1].read_text())
+    cfg["dvl_time_offset_s"] = -86400.0
+    folder[1].write_text(json.dumps(cfg))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        got = _load(folder)
+    assert got.config.dvl_time_offset_s == pytest.approx(-86400.0) and len(got.dvl.t) == int(keep.sum())
+
+
 def test_a_dvl_mostly_without_pings_and_a_few_spikes_is_not_advised_a_knots_unit(sim600, tmp_path):
     """61 % of the pings without a velocity (bottom lock lost) and 1 in 50 at 3x speed, the DVL a day off: the refusal
     of the stream (over half refused) advised declaring knots, though in knots as many pings are refused. It now

@@ -198,7 +198,8 @@ def estimate_dvl_clock_offset(imu, dvl, config=None, *, min_overlap_s: float = M
         broken = np.any(np.diff(t_dvl) > MAX_WINDOW_GAP_S)
         raise DataError(f"the DVL's pings are too {'broken up' if broken else 'few'} to find its clock: "
                         f"{gaps_said(t_dvl, window)}, and no offset keeping {min_overlap_s:.0f} s of overlap puts two "
-                        "of those windows on the IMU span", dvl.source, field="t")
+                        "of those windows on the IMU span: give the DVL clock's offset by hand (dvl_time_offset_s, s "
+                        "added to the DVL stamps) if it is known", dvl.source, field="t")
 
     # the same pings at every offset the refinement tries: one that left some out would fit the rest better. Two
     # grid steps each way: a ping entering the span moves the coarse scores by its share (a 60 s simulated log's
