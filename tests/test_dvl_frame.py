@@ -597,6 +597,31 @@ def test_a_dvl_too_broken_up_for_its_clock_is_told_to_give_its_offset_by_hand(si
     assert got.config.dvl_time_offset_s == pytest.approx(-86400.0) and len(got.dvl.t) == int(keep.sum())
 
 
+@pytest.mark.parametrize("shift", [0.0, 86400.0])
+def test_a_dvl_whose_velocity_barely_changes_is_said_so_not_given_a_meaningless_score(sim600, tmp_path, shift):
+    """A DVL logging a constant 1.5 m/s (1 mm/s of noise) against a manoeuvring vehicle's IMU: the clock messages
+    printed what the IMU "explains" of its changes (best -543.15; -5e11 without noise), a ratio against nearly
+    nothing. They now say the velocity barely changes (about 0.001 m/s about a straight line per window), so the IMU
+    has nothing to be compared with: in the refusal a day off, in the warning and the notes on the IMU span."""
+    m, t, v_b = sim600
+    v = np.round([1.5, 0.0, 0.1] + np.random.default_rng(0).normal(0.0, 1e-3, v_b.shape), 3)
+    still = (r"the DVL velocity barely changes \(0\.00(09|1)\d* m/s RMS about a straight line per 20 s window, under "
+             r"0\.005: a vehicle holding its speed and turn, or a velocity logged constant\), so the IMU's "
+             r"accelerations have nothing to be compared with")
+    folder = _folder(tmp_path, sim600, v, {"clock": "auto"}, shift=shift)
+    if shift:
+        with pytest.raises(DataError, match=r"the clock offset cannot be found: " + still + "; give dvl_time_offset_s"):
+            _load(folder)
+        return
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        got = _load(folder)
+    said = [str(w.message) for w in caught if "DVL clock offset not found" in str(w.message)]
+    assert len(said) == 1 and re.search(r"DVL clock offset not found \(" + still + r"\)", said[0]), said
+    notes = got.meta["streams"]["dvl"]["notes"]
+    assert any(re.search(still, n) for n in notes) and not any(re.search(r"explains? -\d", n) for n in notes), notes
+
+
 def test_a_dvl_mostly_without_pings_and_a_few_spikes_is_not_advised_a_knots_unit(sim600, tmp_path):
     """61 % of the pings without a velocity (bottom lock lost) and 1 in 50 at 3x speed, the DVL a day off: the refusal
     of the stream (over half refused) advised declaring knots, though in knots as many pings are refused. It now
