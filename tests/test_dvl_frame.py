@@ -652,15 +652,21 @@ def test_knots_read_as_m_s_with_most_pings_without_bottom_lock_are_refused_namin
     assert 0.03 < UNIT_ADVICE_MIN_SPEED_SHARE < 0.37
 
 
-def test_m_s_with_most_pings_blank_and_many_spikes_is_not_advised_knots_beside_the_bottom_lock(sim600, tmp_path):
-    """70 % of the pings blank and 30 % of the rest at 3x speed, in m/s: beside the bottom-lock refusal the speed
-    alone "explained" the spikes as knots, which the IMU does not (0.993 unexplained against 0.994): no unit now."""
+def _blank_and_spiked(sim600, blank_share):
+    """The velocity of ``sim600`` with ``blank_share`` of its pings blank (NaN) and 30 % of the rest at 3x speed."""
     m, t, v_b = sim600
     rng = np.random.default_rng(0)
-    blank = rng.random(len(t)) < 0.7
+    blank = rng.random(len(t)) < blank_share
     v = v_b.copy()
     v[~blank & (rng.random(len(t)) < 0.3)] *= 3.0
     v[blank] = np.nan
+    return v
+
+
+def test_m_s_with_most_pings_blank_and_many_spikes_is_not_advised_knots_beside_the_bottom_lock(sim600, tmp_path):
+    """70 % of the pings blank and 30 % of the rest at 3x speed, in m/s: beside the bottom-lock refusal the speed
+    alone "explained" the spikes as knots, which the IMU does not (0.993 unexplained against 0.994): no unit now."""
+    v = _blank_and_spiked(sim600, 0.7)
     with pytest.raises(DataError, match=r"check that the DVL kept bottom lock") as err:
         _load(_folder(tmp_path, sim600, v, {"clock": "auto"}))
     assert "'kn'" not in str(err.value), err.value
@@ -670,12 +676,7 @@ def test_m_s_with_many_pings_blank_and_many_spikes_is_told_both_checks_not_knots
     """40 % of the pings blank and 30 % of the rest at 3x speed, in m/s: the blank pings alone are not over half, and
     the refusal advised knots, which the IMU explains no better (1.00 of the changes unexplained against 1.01). It
     now names both kinds of pings and what to check for each."""
-    m, t, v_b = sim600
-    rng = np.random.default_rng(0)
-    blank = rng.random(len(t)) < 0.4
-    v = v_b.copy()
-    v[~blank & (rng.random(len(t)) < 0.3)] *= 3.0
-    v[blank] = np.nan
+    v = _blank_and_spiked(sim600, 0.4)
     with pytest.raises(DataError, match=r"more than 50% of the stream; 218 of the 601 pings are refused for what no "
                                         r"velocity unit changes \(no valid beam\), and 132 are beyond the vehicle's "
                                         r"envelope, which no smaller velocity unit explains .*check that the DVL kept "
@@ -1022,10 +1023,10 @@ def test_an_earth_frame_velocity_too_short_for_the_kinematics_is_given_two_piece
     with pytest.raises(DataError, match=r"spreads 1\.14x as much as the gyro's heading.*could not judge it \(under two "
                                         r"windows of pings at both readings' best DVL clock offsets\): if the DVL "
                                         r"clock's offset from the IMU's is known, give it \(dvl_time_offset_s; "
-                                        r"csv_columns\.dvl\.clock 'imu' where the stamps are on the IMU clock\) and the "
-                                        r"body kinematics judge it; if it is earth-fixed, declare csv_columns\.dvl\."
-                                        r"frame 'ned' or 'enu' .*; if it is in the vehicle's frame, declare "
-                                        r"csv_columns\.dvl\.frame \('body'"):
+                                        r"csv_columns\.dvl\.clock 'imu' where the stamps are on the IMU clock\) and "
+                                        r"the body kinematics judge it; if it is earth-fixed, declare "
+                                        r"csv_columns\.dvl\.frame 'ned' or 'enu' .*; if it is in the vehicle's frame, "
+                                        r"declare csv_columns\.dvl\.frame \('body'"):
         _load(_akit_log_on_its_own_clock(akit_dir, tmp_path / "earth", 30.0, earth=True))
 
 

@@ -1217,9 +1217,9 @@ def _refused_for_what_no_unit_changes(meta: dict) -> tuple[str | None, float, st
             if most.startswith("no valid beam") or most == NO_BOTTOM_LOCK else
             "the column map and the configuration's sensor ranges")
     both = None if not by_speed else (
-        f"{said}, and {sum(by_speed.values())} are beyond the vehicle's envelope, which no smaller velocity unit explains "
-        f"(spikes, or a vehicle faster than its configured envelope): check {what}; and check the DVL's velocity for "
-        f"spikes and the configuration's sensor ranges")
+        f"{said}, and {sum(by_speed.values())} are beyond the vehicle's envelope, which no smaller velocity unit "
+        f"explains (spikes, or a vehicle faster than its configured envelope): check {what}; and check the DVL's "
+        "velocity for spikes and the configuration's sensor ranges")
     if not sum(others.values()) > MAX_REFUSED_FRACTION * entry["read"]:
         return None, share, both
     if by_speed:
