@@ -640,6 +640,50 @@ def test_a_dvl_too_broken_up_for_its_clock_is_refused_naming_the_gaps_not_the_no
     assert err.value.source.endswith("dvl.csv") and "inf" not in str(err.value) and "noise" not in str(err.value)
 
 
+def test_a_dvl_too_broken_up_for_its_clock_is_told_to_give_its_offset_by_hand(sim600, tmp_path):
+    """The "too broken up" refusal named the gaps but gave no advice: no search can find the clock, the user can give
+    it (dvl_time_offset_s), with which the same log loads at that offset."""
+    m, t, v_b = sim600
+    keep = _outages(t, 30.0, 26.0)
+    folder = _folder(tmp_path, (m, t[keep], v_b[keep]), v_b[keep], {"clock": "auto"}, shift=86400.0)
+    with pytest.raises(DataError, match=r"too broken up to find its clock: .* on the IMU span: give the DVL clock's "
+                                        r"offset by hand \(dvl_time_offset_s, s added to the DVL stamps\) if it is "
+                                        r"known$"):
+        _load(folder)
+    cfg = json.loads(folder[1].read_text())
+    cfg["dvl_time_offset_s"] = -86400.0
+    folder[1].write_text(json.dumps(cfg))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        got = _load(folder)
+    assert got.config.dvl_time_offset_s == pytest.approx(-86400.0) and len(got.dvl.t) == int(keep.sum())
+
+
+@pytest.mark.parametrize("shift", [0.0, 86400.0])
+def test_a_dvl_whose_velocity_barely_changes_is_said_so_not_given_a_meaningless_score(sim600, tmp_path, shift):
+    """A DVL logging a constant 1.5 m/s (1 mm/s of noise) against a manoeuvring vehicle's IMU: the clock messages
+    printed what the IMU "explains" of its changes (best -543.15; -5e11 without noise), a ratio against nearly
+    nothing. They now say the velocity barely changes (about 0.001 m/s about a straight line per window), so the IMU
+    has nothing to be compared with: in the refusal a day off, in the warning and the notes on the IMU span."""
+    m, t, v_b = sim600
+    v = np.round([1.5, 0.0, 0.1] + np.random.default_rng(0).normal(0.0, 1e-3, v_b.shape), 3)
+    still = (r"the DVL velocity barely changes \(0\.00(09|1)\d* m/s RMS about a straight line per 20 s window, under "
+             r"0\.005: a vehicle holding its speed and turn, or a velocity logged constant\), so the IMU's "
+             r"accelerations have nothing to be compared with")
+    folder = _folder(tmp_path, sim600, v, {"clock": "auto"}, shift=shift)
+    if shift:
+        with pytest.raises(DataError, match=r"the clock offset cannot be found: " + still + "; give dvl_time_offset_s"):
+            _load(folder)
+        return
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        got = _load(folder)
+    said = [str(w.message) for w in caught if "DVL clock offset not found" in str(w.message)]
+    assert len(said) == 1 and re.search(r"DVL clock offset not found \(" + still + r"\)", said[0]), said
+    notes = got.meta["streams"]["dvl"]["notes"]
+    assert any(re.search(still, n) for n in notes) and not any(re.search(r"explains? -\d", n) for n in notes), notes
+
+
 def test_a_dvl_mostly_without_pings_and_a_few_spikes_is_not_advised_a_knots_unit(sim600, tmp_path):
     """61 % of the pings without a velocity (bottom lock lost) and 1 in 50 at 3x speed, the DVL a day off: the refusal
     of the stream (over half refused) advised declaring knots, though in knots as many pings are refused. It now
@@ -670,16 +714,35 @@ def test_knots_read_as_m_s_with_most_pings_without_bottom_lock_are_refused_namin
     assert 0.03 < UNIT_ADVICE_MIN_SPEED_SHARE < 0.37
 
 
-def test_m_s_with_most_pings_blank_and_many_spikes_is_not_advised_knots_beside_the_bottom_lock(sim600, tmp_path):
-    """70 % of the pings blank and 30 % of the rest at 3x speed, in m/s: beside the bottom-lock refusal the speed
-    alone "explained" the spikes as knots, which the IMU does not (0.993 unexplained against 0.994): no unit now."""
+def _blank_and_spiked(sim600, blank_share):
+    """The velocity of ``sim600`` with ``blank_share`` of its pings blank (NaN) and 30 % of the rest at 3x speed."""
     m, t, v_b = sim600
     rng = np.random.default_rng(0)
-    blank = rng.random(len(t)) < 0.7
+    blank = rng.random(len(t)) < blank_share
     v = v_b.copy()
     v[~blank & (rng.random(len(t)) < 0.3)] *= 3.0
     v[blank] = np.nan
+    return v
+
+
+def test_m_s_with_most_pings_blank_and_many_spikes_is_not_advised_knots_beside_the_bottom_lock(sim600, tmp_path):
+    """70 % of the pings blank and 30 % of the rest at 3x speed, in m/s: beside the bottom-lock refusal the speed
+    alone "explained" the spikes as knots, which the IMU does not (0.993 unexplained against 0.994): no unit now."""
+    v = _blank_and_spiked(sim600, 0.7)
     with pytest.raises(DataError, match=r"check that the DVL kept bottom lock") as err:
+        _load(_folder(tmp_path, sim600, v, {"clock": "auto"}))
+    assert "'kn'" not in str(err.value), err.value
+
+
+def test_m_s_with_many_pings_blank_and_many_spikes_is_told_both_checks_not_knots(sim600, tmp_path):
+    """40 % of the pings blank and 30 % of the rest at 3x speed, in m/s: the blank pings alone are not over half, and
+    the refusal advised knots, which the IMU explains no better (1.00 of the changes unexplained against 1.01). It
+    now names both kinds of pings and what to check for each."""
+    v = _blank_and_spiked(sim600, 0.4)
+    with pytest.raises(DataError, match=r"more than 50% of the stream; 218 of the 601 pings are refused for what no "
+                                        r"velocity unit changes \(no valid beam\), and 132 are beyond the vehicle's "
+                                        r"envelope, which no smaller velocity unit explains .*check that the DVL kept "
+                                        r"bottom lock .*check the DVL's velocity for spikes") as err:
         _load(_folder(tmp_path, sim600, v, {"clock": "auto"}))
     assert "'kn'" not in str(err.value), err.value
 
@@ -1013,6 +1076,20 @@ def test_an_earth_frame_velocity_on_a_clock_of_its_own_is_refused_before_the_clo
         warnings.simplefilter("always")
         m = _load(_akit_log_on_its_own_clock(akit_dir, tmp_path / "body", seconds, earth=False))
     assert m.config.dvl_time_offset_s == pytest.approx(86400.0, abs=0.1)
+
+
+def test_an_earth_frame_velocity_too_short_for_the_kinematics_is_given_two_pieces_of_advice(akit_dir, tmp_path):
+    """An NED velocity of 30 s a day off: its direction spreads as the heading does and the body kinematics cannot
+    judge it (under two windows). The refusal's advice ran together ("('clock': 'imu'): declare ... 'ned'"): it now
+    gives the clock and the frame each with its condition."""
+    with pytest.raises(DataError, match=r"spreads 1\.14x as much as the gyro's heading.*could not judge it \(under two "
+                                        r"windows of pings at both readings' best DVL clock offsets\): if the DVL "
+                                        r"clock's offset from the IMU's is known, give it \(dvl_time_offset_s; "
+                                        r"csv_columns\.dvl\.clock 'imu' where the stamps are on the IMU clock\) and "
+                                        r"the body kinematics judge it; if it is earth-fixed, declare "
+                                        r"csv_columns\.dvl\.frame 'ned' or 'enu' .*; if it is in the vehicle's frame, "
+                                        r"declare csv_columns\.dvl\.frame \('body'"):
+        _load(_akit_log_on_its_own_clock(akit_dir, tmp_path / "earth", 30.0, earth=True))
 
 
 @pytest.mark.parametrize("seed, speed, current, judged", [

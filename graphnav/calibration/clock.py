@@ -37,7 +37,8 @@ from scipy.optimize import minimize_scalar
 
 from graphnav.calibration.reference import _sigma_from_curvature
 from graphnav.core.dvl_kinematics import (COARSE_MAX_WINDOWS, MAX_WINDOW_GAP_S, MIN_OVERLAP_S, dvl_window_model,
-                                          gaps_said, offset_grid, search_overlap, with_enough_pings)
+                                          gaps_said, offset_grid, search_overlap, still_velocity_said,
+                                          with_enough_pings)
 from graphnav.core.errors import DataError
 from graphnav.core.streams import add_note, count_doubted, set_span
 from graphnav.core.timeseries import cumulative_integral, interp_rows, on_the_imu_clock, overlap_text
@@ -198,7 +199,8 @@ def estimate_dvl_clock_offset(imu, dvl, config=None, *, min_overlap_s: float = M
         broken = np.any(np.diff(t_dvl) > MAX_WINDOW_GAP_S)
         raise DataError(f"the DVL's pings are too {'broken up' if broken else 'few'} to find its clock: "
                         f"{gaps_said(t_dvl, window)}, and no offset keeping {min_overlap_s:.0f} s of overlap puts two "
-                        "of those windows on the IMU span", dvl.source, field="t")
+                        "of those windows on the IMU span: give the DVL clock's offset by hand (dvl_time_offset_s, s "
+                        "added to the DVL stamps) if it is known", dvl.source, field="t")
 
     # the same pings at every offset the refinement tries: one that left some out would fit the rest better. Two
     # grid steps each way: a ping entering the span moves the coarse scores by its share (a 60 s simulated log's
@@ -342,9 +344,10 @@ def align_stream_clocks(imu, dvl, depth=None, meta: dict | None = None, config=N
     meta.setdefault("clock_offsets", {})["dvl"] = est.to_dict()
     period = float(np.median(np.diff(dvl.t))) if len(dvl.t) > 1 else 1.0
     if not est.confident:
-        why = (f"the IMU's accelerations explain the DVL's velocity changes at no clear offset (best "
-               f"{est.peak:.2f}, next {est.second_peak:.2f}: the DVL noise hides the vehicle's accelerations, or "
-               "a constant-velocity log has no signal)")
+        why = still_velocity_said(est.peak, est.rms) or (
+            f"the IMU's accelerations explain the DVL's velocity changes at no clear offset (best {est.peak:.2f}, "
+            f"next {est.second_peak:.2f}: the DVL noise hides the vehicle's accelerations, or a constant-velocity log "
+            "has no signal)")
         if not inside:
             raise DataError(f"DVL stamps [{dvl.t[0]:.3f}, {dvl.t[-1]:.3f}] s lie outside the IMU span "
                             f"[{imu.t[0]:.3f}, {imu.t[-1]:.3f}] s (they share {overlap_text(dvl.t, imu.t)}) and the "

@@ -321,7 +321,10 @@ def _searchable(model, offsets: np.ndarray) -> tuple[np.ndarray, float]:
     log, three windows, every wrong turn's best left one out). A log too short to keep two windows inside over all
     of ``offsets`` is searched only as far as two stay inside (a 60 s log whose stamps span the IMU's: +-1 s over its
     last two windows; none: at the stamps, where the fits then have no two windows to judge by)."""
-    reach = max(0.0, min(float(np.max(np.abs(offsets))), float(np.sort(_window_reach(model))[-2])))
+    reaches = np.sort(_window_reach(model))
+    # under two windows (pings broken up by outages, an offset given by hand) nothing reaches: at the stamps only
+    second = float(reaches[-2]) if len(reaches) > 1 else 0.0
+    reach = max(0.0, min(float(np.max(np.abs(offsets))), second))
     return offsets[np.abs(offsets) <= reach], reach
 
 

@@ -70,7 +70,7 @@ from pathlib import Path
 import numpy as np
 
 from graphnav.core.config import SensorConfig
-from graphnav.core.dvl_kinematics import dvl_velocity_b
+from graphnav.core.dvl_kinematics import dvl_velocity_b, still_velocity_said
 from graphnav.core.earth import gravity_magnitude
 from graphnav.core.errors import ConfigError, DataError
 from graphnav.core.mission import IMU_RATE_TOLERANCE, DepthData, DvlData, GroundTruth, ImuData, Mission, no_beams
@@ -555,8 +555,9 @@ def _akit_dvl_offset_without_gt(dvl: DvlData, imu: ImuData, cfg: SensorConfig, m
     except DataError as err:
         est, not_judged = None, str(err)
     else:
-        not_judged = None if est.confident else (f"the IMU explains {est.peak:.2f} of the DVL's velocity changes at "
-                                                 f"best, {est.offset_s:+.2f} s from it: no clear offset")
+        not_judged = None if est.confident else (still_velocity_said(est.peak, est.rms) or (
+            f"the IMU explains {est.peak:.2f} of the DVL's velocity changes at best, {est.offset_s:+.2f} s from it: "
+            "no clear offset"))
     if not_judged is None and abs(est.offset_s) > max(AKIT_DVL_CLOCK_MARGIN_S, 3.0 * est.sigma_s):
         offset = default + est.offset_s
         # on the stamps as read, as a clock search's estimate is (its coarse offset too)
@@ -1042,6 +1043,9 @@ def _clock_not_found_said(est: dict) -> str:
     """A DVL clock search's estimate ``est`` (``meta["clock_offsets"]["dvl"]``) that found no clear offset, said (with
     its best offset where that lies off the stamps: :func:`graphnav.calibration.clock.best_off_its_stamps`)."""
     from graphnav.calibration.clock import best_off_its_stamps
+    still = still_velocity_said(est["peak"], est["rms"])
+    if still:
+        return f"DVL clock offset not found ({still})"
     return (f"DVL clock offset not found (the IMU's accelerations explain the DVL's velocity changes at no clear "
             f"offset: best {est['peak']:.2f}, next {est['second_peak']:.2f}{best_off_its_stamps(est)})")
 
@@ -1348,8 +1352,10 @@ def _judge_given_dvl_clock(mission: Mission, shifted: DvlData, dvl: DvlData, met
             add_note(meta, "dvl", f"the configuration's dvl_time_offset_s is not judged ({err})")
             return
     if not est["confident"]:
-        add_note(meta, "dvl", "the configuration's dvl_time_offset_s is not judged: the DVL clock fit finds no clear "
-                 f"offset (the IMU explains {est['peak']:.2f} of the DVL's velocity changes at best)")
+        why = still_velocity_said(est["peak"], est["rms"]) or (f"the DVL clock fit finds no clear offset (the IMU "
+                                                               f"explains {est['peak']:.2f} of the DVL's velocity "
+                                                               "changes at best)")
+        add_note(meta, "dvl", f"the configuration's dvl_time_offset_s is not judged: {why}")
         return
     _judge_given_offset(meta, facts, "dvl", given, given + est["offset_s"], est["sigma_s"], mission,
                         ", the DVL's velocity changes against the IMU's accelerations", GIVEN_DVL_CLOCK_FLOOR_S)

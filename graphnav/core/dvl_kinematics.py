@@ -40,6 +40,25 @@ MIN_OVERLAP_FRACTION = 0.5
 #: Windows the coarse scan scores at each offset (spread over the log; the refinement uses them all): 60 x 20 s
 #: is 20 minutes of a 1 Hz DVL, plenty to tell offsets apart, and keeps a long log's scan to seconds.
 COARSE_MAX_WINDOWS = 60
+#: A DVL velocity that a straight line per window leaves under this RMS (m/s per axis, at a clock fit's best offset)
+#: barely changes: what the IMU explains of its changes is a ratio against nearly nothing, not a score (a constant
+#: velocity with 1 mm/s noise against a simulated IMU: -526; without noise -5e11). At their clock offsets the ten A-KIT
+#: trajectories leave 0.013 (Trajectory13, holding its speed) to 0.15; simulated missions 0.025 (noiseless) to 0.075.
+STILL_LINE_RMS_MPS = 0.005
+
+
+def still_velocity_said(peak: float, rms: float) -> str | None:
+    """Where the DVL velocity barely changes (:data:`STILL_LINE_RMS_MPS`), what to say instead of the share of its
+    changes a clock fit explains (``peak``, leaving a residual of ``rms`` m/s per axis per ping: the straight line
+    per window leaves ``rms / sqrt(1 - peak)``); else None."""
+    if not (np.isfinite(peak) and np.isfinite(rms) and peak < 1.0):
+        return None
+    line = rms / np.sqrt(1.0 - peak)
+    if not line < STILL_LINE_RMS_MPS:
+        return None
+    return (f"the DVL velocity barely changes ({line:.2g} m/s RMS about a straight line per {WINDOW_S:g} s window, "
+            f"under {STILL_LINE_RMS_MPS:g}: a vehicle holding its speed and turn, or a velocity logged constant), so "
+            "the IMU's accelerations have nothing to be compared with")
 
 
 @dataclass

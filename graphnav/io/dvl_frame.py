@@ -525,7 +525,7 @@ def _vehicle_fixed(t_dvl, v, t_imu, f_b, omega_b) -> bool:
 
 
 def smaller_unit_advice(t_dvl: np.ndarray, v: np.ndarray, declared: dict, t_imu: np.ndarray, f_b: np.ndarray,
-                        omega_b: np.ndarray, spec, clearly: float = 1.0) -> str | None:
+                        omega_b: np.ndarray, spec, clearly: float = 1.0, speed_alone: bool = True) -> str | None:
     """Why a body-frame DVL velocity ``v`` (M,3, m/s in the ``declared`` unit: ``{"unit", "key"}``, with ``"taken":
     True`` the unit a loader took where none was declared, the fix then to declare one) that the vehicle's
     envelope or the frame check refuses is likely in a unit at least 10x smaller (or, for m/s, in knots), or None when
@@ -534,7 +534,8 @@ def smaller_unit_advice(t_dvl: np.ndarray, v: np.ndarray, declared: dict, t_imu:
     (:func:`check_not_earth_frame`'s test) and the IMU's accelerations leave less of its changes unexplained than in
     the declared unit, and under 1 (:func:`graphnav.io.units.velocity_unit_fits`). The best explained unit is named.
     ``t_imu`` (s), ``f_b`` (m/s^2), ``omega_b`` (rad/s): the IMU, FRD. ``clearly`` < 1: the unit must leave under that
-    share of what the declared one leaves unexplained, and without the IMU's fit no unit is advised."""
+    share of what the declared one leaves unexplained. ``speed_alone`` False: without the IMU's fit (the pings not on
+    its clock) no unit is advised."""
     from graphnav.core.screening import MAX_REFUSED_FRACTION, implausible_pings
     from graphnav.io.units import other_unit_factors, unit_fix, velocity_unit_fits
     unit = declared["unit"]
@@ -544,7 +545,7 @@ def smaller_unit_advice(t_dvl: np.ndarray, v: np.ndarray, declared: dict, t_imu:
     for u in sorted(factors, key=lambda u: fits[factors[u]] if fits else -factors[u]):
         k, w = factors[u], v * factors[u]
         outside = int(np.any(list(implausible_pings(t_dvl, w, spec).values()), axis=0).sum())
-        if outside > MAX_REFUSED_FRACTION * n or (fits is None and clearly < 1.0) or (fits is not None and not (
+        if outside > MAX_REFUSED_FRACTION * n or (fits is None and not speed_alone) or (fits is not None and not (
                 fits[k] < clearly * min(fits[1.0], 1.0) and _vehicle_fixed(t_dvl, w, t_imu, f_b, omega_b))):
             continue
         imu = "" if fits is None else (f", the velocity vehicle-fixed, the IMU's accelerations leaving {fits[k]:.3g} "
@@ -738,7 +739,12 @@ def _check_spread(t_dvl: np.ndarray, v: np.ndarray, v_b: np.ndarray, t_imu: np.n
     judged = (f"{_judged(kin, limit, where)}: {_verdict(said)}" if np.isfinite(kin) else
               "it looks earth-fixed (NED/ENU), or a vehicle slower than the current it moves in, which spreads so "
               "too and only the body kinematics tell apart: they could not judge it (under two windows of pings at "
-              "both readings' best DVL clock offsets); put the DVL stamps on the IMU clock ('clock': 'imu')")
+              "both readings' best DVL clock offsets)")
+    if not np.isfinite(kin) and not said.get("declared"):
+        # two pieces of advice, each with its condition: the clock lets the kinematics judge, the frame is the fix
+        said = {**said, "declare": "if the DVL clock's offset from the IMU's is known, give it (dvl_time_offset_s; "
+                                   "csv_columns.dvl.clock 'imu' where the stamps are on the IMU clock) and the body "
+                                   f"kinematics judge it; if it is earth-fixed, {said['declare']}"}
     refuse_unless_declared(meta, source, fields, t_dvl, said, f"{spread}; {judged}", kin, limit)
 
 

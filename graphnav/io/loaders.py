@@ -1161,19 +1161,25 @@ def _declared_unit_advice(meta: dict, imu, t: np.ndarray, v: np.ndarray, cfg: Se
     envelope, where the refusal's "check the units" does not say which; else ``{}``. Where the pings refused for
     something a unit does not change (no valid beam, bottom lock lost) are over half the stream by themselves, the
     refusal says so (:func:`_refused_for_what_no_unit_changes`), and a unit is advised beside it only where the pings
-    refused for their speed are at least :data:`UNIT_ADVICE_MIN_SPEED_SHARE` of the rest (not a few spikes)."""
+    refused for their speed are at least :data:`UNIT_ADVICE_MIN_SPEED_SHARE` of the rest (not a few spikes). Beside
+    any such pings a unit is advised only where the IMU's accelerations explain it clearly better
+    (:data:`UNIT_ADVICE_CLEARLY`); where none is, the refusal names both kinds of pings and what to check for each."""
     from graphnav.io.units import judged_velocity_unit
     declared = judged_velocity_unit(meta)
     if not declared or not over_refused_limit(meta, "dvl"):
         return {}
-    not_the_unit, speed_share = _refused_for_what_no_unit_changes(meta)
+    not_the_unit, speed_share, both = _refused_for_what_no_unit_changes(meta)
     advice = None
     if not_the_unit is None or speed_share >= UNIT_ADVICE_MIN_SPEED_SHARE:
         from graphnav.io.dvl_frame import smaller_unit_advice
-        # beside pings refused whatever the unit, the speed alone cannot tell spikes from a unit: the IMU must
-        # (m/s data with 30 % of their pings at 3x speed leave 0.993 unexplained in knots, 0.994 in m/s)
+        # beside pings refused whatever the unit, the speed alone cannot tell spikes from a unit: the IMU must, where
+        # it sees the pings (m/s data with 30 % of their pings at 3x speed leave 0.993 unexplained in knots, 0.994 in
+        # m/s with 70 % blank; 1.00 against 1.01 with 40 % blank)
         advice = smaller_unit_advice(t, v, declared, imu.t, imu.f_b, imu.omega_b, cfg.dvl,
-                                     clearly=1.0 if not_the_unit is None else UNIT_ADVICE_CLEARLY)
+                                     clearly=1.0 if not both else UNIT_ADVICE_CLEARLY,
+                                     speed_alone=not_the_unit is None)
+    if not (not_the_unit or advice) and both:
+        not_the_unit = both
     said = "; besides, ".join(s for s in (not_the_unit, advice) if s)
     return {"dvl": said} if said else {}
 
@@ -1189,27 +1195,33 @@ UNIT_ADVICE_MIN_SPEED_SHARE = 0.1
 UNIT_ADVICE_CLEARLY = 0.5
 
 
-def _refused_for_what_no_unit_changes(meta: dict) -> tuple[str | None, float]:
-    """``(what to check, share)`` when the DVL pings refused for reasons a velocity unit does not change (all but the
-    vehicle's envelope and a beam beyond its speed) are over :data:`~graphnav.core.screening.MAX_REFUSED_FRACTION` of
-    the stream by themselves (``meta["streams"]["dvl"]``), naming them and the few a unit could, else None; ``share``:
-    the pings refused for their speed over those not refused for the other reasons. A DVL with over half its pings
-    without a valid beam and a few speed spikes was advised knots, in which as many are refused."""
+def _refused_for_what_no_unit_changes(meta: dict) -> tuple[str | None, float, str | None]:
+    """``(what to check, share, what to check for both)``: the first when the DVL pings refused for reasons a velocity
+    unit does not change (all but the vehicle's envelope and a beam beyond its speed) are over
+    :data:`~graphnav.core.screening.MAX_REFUSED_FRACTION` of the stream by themselves (``meta["streams"]["dvl"]``),
+    naming them and the few a unit could, else None; ``share``: the pings refused for their speed over those not
+    refused for the other reasons; the last, where there are pings of both kinds (else None), names both and what to
+    check for each, for a refusal no unit explains. A DVL with over half its pings without a valid beam and a few speed
+    spikes was advised knots, in which as many are refused."""
     entry = meta["streams"]["dvl"]
     by_speed = {r: n for r, n in entry["refused"].items() if r.startswith("outside the envelope") or "beam beyond" in r}
     others = {r: n for r, n in entry["refused"].items() if r not in by_speed}
     share = sum(by_speed.values()) / max(entry["read"] - sum(others.values()), 1)
-    if not sum(others.values()) > MAX_REFUSED_FRACTION * entry["read"]:
-        return None, share
+    if not others:
+        return None, share, None
     most = max(others, key=others.get)
     said = (f"{sum(others.values())} of the {entry['read']} pings are refused for what no velocity unit changes "
             f"({', '.join(r.split(' (')[0] for r in sorted(others, key=others.get, reverse=True))})")
-    if by_speed:
-        said += f", over {MAX_REFUSED_FRACTION:.0%} without the {sum(by_speed.values())} beyond the vehicle's envelope"
     what = ("that the DVL kept bottom lock (altitude within its range) and that its velocity is read from the right "
             "columns"
             if most.startswith("no valid beam") or most == NO_BOTTOM_LOCK else
             "the column map and the configuration's sensor ranges")
-    return f"{said}: check {what}", share
-
-
+    both = None if not by_speed else (
+        f"{said}, and {sum(by_speed.values())} are beyond the vehicle's envelope, which no smaller velocity unit "
+        f"explains (spikes, or a vehicle faster than its configured envelope): check {what}; and check the DVL's "
+        "velocity for spikes and the configuration's sensor ranges")
+    if not sum(others.values()) > MAX_REFUSED_FRACTION * entry["read"]:
+        return None, share, both
+    if by_speed:
+        said += f", over {MAX_REFUSED_FRACTION:.0%} without the {sum(by_speed.values())} beyond the vehicle's envelope"
+    return f"{said}: check {what}", share, both
