@@ -619,3 +619,53 @@ def test_a_best_offset_off_the_stamps_barely_ahead_of_the_next_is_not_named_as_t
     ahead = best_off_its_stamps({**est, "second_peak": 0.19 - 2 * NAMED_OFFSET_MIN_GAP})
     assert "give dvl_time_offset_s 54.363 if it is the DVL clock's" in ahead, ahead
     assert best_off_its_stamps({**est, "off_its_stamps": False, "second_peak": 0.0}) == ""
+
+
+@pytest.mark.parametrize("late_s", [5.0, 10.0])
+def test_a_noisy_dvl_seconds_late_is_not_moved_to_a_manoeuvre_repeated_far_off(tmp_path, late_s):
+    """A 200 s log with 0.035 m/s beams whose DVL lags 5 or 10 s: its best offset, 83 s from the right one, is a
+    manoeuvre repeated (0.148 explained over the pings on the IMU span there, 0.097 at the right offset over more), so
+    the DVL was moved 83 s off its clock, warned and counted as taken under the clear peak. On the pings both keep the
+    two explain 0.151 and 0.148: the offset nearer the stamps is taken, the far one said."""
+    from graphnav.calibration.clock import CLOCK_TAKEN_UNCLEAR
+    cfg = SensorConfig()
+    cfg.dvl = dataclasses.replace(cfg.dvl, beam_noise_std=0.035)
+    sim = simulate_mission(200.0, seed=36, config=cfg)
+    config = _beams_log(sim, tmp_path / "late", late_s, "auto")
+    with pytest.warns(RuntimeWarning, match=rf"DVL clock offset -{late_s:.0f}\.\d+ s .* under the clear peak .* every "
+                                            r"other offset within 15 s of the stamps 0\.\d\d less \(\+\d\d\.\d+ s, "
+                                            r"further from the stamps, explains about as much"):
+        m = load_mission(config.parent, config)
+    np.testing.assert_allclose(m.dvl.t, sim.dvl.t, atol=1.0)
+    assert m.meta["clock_offsets"]["dvl"]["repeated_at_s"] == pytest.approx(83.1 - late_s, abs=1.0)
+    assert m.meta["streams"]["dvl"]["doubted"] == {CLOCK_TAKEN_UNCLEAR: len(sim.dvl.t)}
+
+
+def test_an_akit_dvl_too_noisy_for_its_clock_and_a_minute_late_is_warned_and_counted(akit_dir, tmp_path):
+    """Trajectory13 without GT, its DVL 60 s late with 0.25 m/s of noise: the IMU explains its velocity changes
+    nowhere (-0.01 at the stamps, 0.01 at best), so the clock search found no offset and the stamps were kept, 60 s off,
+    without a word on the clock. Now the stamps kept are warned about, naming what the search could not settle, and
+    the pings counted; the published files (the DVL explains -1.3 to 0.79 at its stamps, found within the fine
+    search's reach) do not get it."""
+    import shutil
+
+    from graphnav.calibration.preparation import CLOCK_NOT_FOUND
+    from graphnav.io.loaders import akit_files
+    files = akit_files(akit_dir / "Trajectory13")
+    dst = tmp_path / "Trajectory13"
+    dst.mkdir()
+    shutil.copy(files["IMU"], dst / files["IMU"].name)
+    rows = np.loadtxt(files["DVL"], delimiter=",", skiprows=1)
+    rows[:, 0] += 60.0
+    rows[:, 1:4] += 0.25 * np.random.default_rng(0).standard_normal((len(rows), 3))
+    header = files["DVL"].read_text().splitlines()[0]
+    np.savetxt(dst / files["DVL"].name, rows, delimiter=",", header=header, comments="", fmt="%.17g")
+    with pytest.warns(RuntimeWarning, match=r"DVL clock offset not found .* and the IMU explains -?0\.\d\d of them at "
+                                            r"its stamps as read \(under 0\.2\): its stamps are kept"):
+        m = load_akit(dst, imu_axis_signs=(1, -1, 1))
+    assert m.meta["streams"]["dvl"]["doubted"] == {CLOCK_NOT_FOUND: len(rows)}
+    for name in ("Trajectory11", "Trajectory13"):
+        with warnings.catch_warnings(record=True) as said:
+            warnings.simplefilter("always")
+            load_akit(akit_dir / name, imu_axis_signs=(1, -1, 1))
+        assert not [w for w in said if "clock offset not found" in str(w.message)]

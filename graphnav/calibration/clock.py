@@ -84,6 +84,15 @@ FINE_OFFSET_S = 2.0
 #: Why the pings of a DVL are counted whose clock offset was taken off its stamps under the clear peak
 #: (:attr:`ClockOffset.off_its_stamps`).
 CLOCK_TAKEN_UNCLEAR = "DVL clock offset taken under the clear peak: its stamps as read explain it far less"
+#: Such an offset further than this from the stamps (s) is taken only where it also explains
+#: OFF_STAMPS_MIN_GAP more than the best offset within this of them, the two scored on the pings both keep on the IMU
+#: span (:func:`_nearer_the_stamps`; else the nearer is judged in its place): a DVL a few seconds off its clock is far
+#: likelier than one a minute or more off, and the explained fraction of a far offset, over fewer pings, is not that of
+#: a near one. Measured on 200 s simulated logs, seeds 30-40, 0.03-0.04 m/s beams: seed 36 (a manoeuvre repeated 83 s
+#: on) 0-10 s late had its best offset 83 s off, 0.048-0.051 ahead of the right one as scored, 0.003 on the shared
+#: pings; the 112 logs 30-90 s late whose best offset was right beat the best within 15 s by 0.008-0.19 on the shared
+#: pings (none of the 44 under 0.05 was taken before: each beat its next best by less than 0.05).
+NEAR_REACH_S = 15.0
 #: An applied DVL clock offset with a larger sigma (s) says the data barely fix it: a tenth of a 1 s ping period.
 #: Simulated 60-200 s missions (37 s injected, four seeds): 0.06-0.32 s off with sigmas 0.13-0.33 s (the five
 #: confident 0.13-0.26 s off, within 1.6 sigma); a 400 s one with 0.01 m/s beam noise 0.002 s off, sigma 0.055 s;
@@ -108,6 +117,9 @@ class ClockOffset:
         explains: what the IMU explains, for :meth:`describe`.
         stamped: the same at the stamps as read, at its best within :data:`FINE_OFFSET_S` of them
             (:func:`explained_as_stamped`), for a DVL on the IMU span whose peak is not clear; NaN where not measured.
+        repeated_at_s: an offset further than :data:`NEAR_REACH_S` from the stamps that explained more but not clearly
+            more on the pings both keep (:func:`_nearer_the_stamps`: a manoeuvre repeated), this one, the best within
+            that reach, judged in its place; NaN where none.
     """
 
     offset_s: float
@@ -120,6 +132,7 @@ class ClockOffset:
     n: int
     explains: str = "the DVL's velocity changes"
     stamped: float = float("nan")
+    repeated_at_s: float = float("nan")
 
     @property
     def sharpness(self) -> float:
@@ -128,8 +141,9 @@ class ClockOffset:
 
     @property
     def clear(self) -> bool:
-        """The peak stands out of the residuals at every other offset (:data:`MIN_PEAK`, :data:`MIN_SSE_RATIO`)."""
-        return self.peak >= MIN_PEAK and self.sharpness >= MIN_SSE_RATIO
+        """The peak stands out of the residuals at every other offset (:data:`MIN_PEAK`, :data:`MIN_SSE_RATIO`); an
+        offset another further off explains about as well (``repeated_at_s``) is not clear."""
+        return self.peak >= MIN_PEAK and self.sharpness >= MIN_SSE_RATIO and not np.isfinite(self.repeated_at_s)
 
     @property
     def off_its_stamps(self) -> bool:
@@ -156,6 +170,8 @@ class ClockOffset:
         measured = np.isfinite(self.stamped)      # only for a DVL on the IMU span whose peak is not clear
         if not measured:
             del out["stamped"]
+        if not np.isfinite(self.repeated_at_s):
+            del out["repeated_at_s"]
         out.update(sharpness=self.sharpness, confident=self.confident)
         if measured:
             out["off_its_stamps"] = self.off_its_stamps
@@ -239,6 +255,30 @@ def _beyond_the_near_search(imu, dvl, config, min_overlap_s: float, near: ClockO
     return near
 
 
+def _nearer_the_stamps(imu, dvl, config, min_overlap_s: float, far: ClockOffset) -> ClockOffset:
+    """``far``, a DVL's best offset taken off its stamps under the clear peak (:attr:`ClockOffset.off_its_stamps` and
+    ``confident``), unless it lies further than :data:`NEAR_REACH_S` from them and explains less than
+    :data:`OFF_STAMPS_MIN_GAP` more than the best offset within that reach, the two scored on the pings both keep on the
+    IMU span: then that nearer one, judged on its own, with ``far`` as its ``repeated_at_s``. A ``far`` not taken is
+    left as it is: judged in its place, a nearer one beating the others within the reach moved 200 s logs 30-90 s late
+    (seeds 31, 34, 39; 0.03-0.04 m/s beams), kept on their stamps before, 49-95 s off their clock. A 200 s log with
+    0.035 m/s beams whose DVL lagged 5-10 s was moved 83 s off its clock, to a manoeuvre repeated there (0.148
+    explained over the 116 pings on the IMU span there, 0.097 at the right offset over 193; 0.151 and 0.148 over the
+    116 both keep)."""
+    if not (far.confident and far.off_its_stamps and abs(far.offset_s) > NEAR_REACH_S):
+        return far
+    try:
+        near = estimate_dvl_clock_offset(imu, dvl, config, min_overlap_s=min_overlap_s,
+                                         search_s=(-NEAR_REACH_S, NEAR_REACH_S))
+    except DataError:
+        return far
+    model, _ = dvl_window_model(imu, dvl, config, trim=True)
+    both = with_enough_pings(model.pings(far.offset_s) & model.pings(near.offset_s))
+    if not model.score(far.offset_s, both)[0] - model.score(near.offset_s, both)[0] < OFF_STAMPS_MIN_GAP:
+        return far
+    return dataclasses.replace(near, stamped=far.stamped, repeated_at_s=far.offset_s)
+
+
 def explained_as_stamped(imu, dvl, config=None, within_s: float = 0.0) -> float:
     """The share of the DVL's velocity changes the IMU explains at the DVL stamps as they stand (the clock search's
     score at offset 0, over its coarse windows; 1 = all, below :data:`MIN_PEAK` a clock search finds no offset by),
@@ -275,6 +315,20 @@ def _coarse_offset(coarse_model, t_imu: np.ndarray, t_other: np.ndarray, min_ove
     return h, float(grid[i]), float(scores[i]), second
 
 
+def repeated(est: ClockOffset) -> bool:
+    """An offset judged in place of one further off that explained about as much (:func:`_nearer_the_stamps`)."""
+    return bool(np.isfinite(est.repeated_at_s))
+
+
+def repeated_said(est: dict) -> str:
+    """The clause saying an offset further off explained about as much (``est``: a :meth:`ClockOffset.to_dict` with
+    ``repeated_at_s``); '' without."""
+    if "repeated_at_s" not in est:
+        return ""
+    return (f" ({est['repeated_at_s']:+.3f} s, further from the stamps, explains about as much on the pings both keep "
+            "on the IMU span, a manoeuvre repeated: the nearer is judged)")
+
+
 def best_off_its_stamps(est: dict) -> str:
     """What a DVL on the IMU span whose clock is not found is told of its best offset (``est``: a not confident
     :meth:`ClockOffset.to_dict`): where that lies off its stamps (:attr:`ClockOffset.off_its_stamps`), a clause naming
@@ -285,6 +339,7 @@ def best_off_its_stamps(est: dict) -> str:
     said = (f"; the IMU explains {est['stamped']:.2f} of the DVL's velocity changes at its stamps as read and "
             f"{est['peak']:.2f} at the best offset, {est['offset_s']:+.3f} s, {gap:.2f} more than at any other: the "
             "DVL clock looks off, but")
+    said += repeated_said(est)
     if gap < NAMED_OFFSET_MIN_GAP:
         return (f"{said} the data name no offset (another explains nearly as much): give dvl_time_offset_s if it is "
                 "known")
@@ -336,6 +391,7 @@ def align_stream_clocks(imu, dvl, depth=None, meta: dict | None = None, config=N
                 # a DVL a second or two late (its fine time offset) explains less at its stamps than near them: a
                 # manoeuvre repeated 82 s on was taken over the stamps of a clean 200 s log 1.5 s late
                 est = dataclasses.replace(est, stamped=explained_as_stamped(imu, dvl, config, FINE_OFFSET_S))
+                est = _nearer_the_stamps(imu, dvl, config, min_overlap_s, est)
     except DataError:
         if inside:
             add_note(meta, "dvl", "clock offset not estimated (too few pings or too short a log); stamps kept")
@@ -360,9 +416,11 @@ def align_stream_clocks(imu, dvl, depth=None, meta: dict | None = None, config=N
         return dvl, depth
     text = f"DVL clock offset {est.describe()} estimated from the data and added to the DVL stamps"
     if not est.clear:
+        others = "every other offset" + (f" within {NEAR_REACH_S:g} s of the stamps" if repeated(est) else "")
         text += (f", though under the clear peak the search asks for ({MIN_PEAK:g} explained, residual ratio "
                  f"{MIN_SSE_RATIO:g}; the DVL noise hides the vehicle's accelerations): the stamps as read explain "
-                 f"{est.peak - est.stamped:.2f} less and every other offset {est.peak - est.second_peak:.2f} less")
+                 f"{est.peak - est.stamped:.2f} less and {others} {est.peak - est.second_peak:.2f} less"
+                 f"{repeated_said(est.to_dict())}")
     if not est.sigma_s <= CLOCK_SIGMA_WARN_S:
         text += (f"; the data barely fix it (sigma over {CLOCK_SIGMA_WARN_S:g} s: a short log, or little "
                  "acceleration): give dvl_time_offset_s if it is known, or let graphnav calibrate fit it against a "

@@ -688,13 +688,21 @@ def _clock_beyond_the_fine_search(imu: ImuData, dvl: DvlData, cfg: SensorConfig,
     IMU explains its velocity changes poorly as stamped (under the clock search's ``MIN_PEAK``). 60 s late on a 400 s
     trajectory, it was refused as a DVL in another frame (with GT) or loaded 60 s off (without). The published files'
     DVL, about 1 s early, explains -1.3 (Trajectory11) to 0.79 as stamped: the search finds it within the fine
-    search's reach, which is left to take it, so they load as before."""
+    search's reach, which is left to take it, so they load as before. Where the search finds no clear offset (a DVL
+    too noisy for its clock: Trajectory13 60 s late with 0.25 m/s of noise loaded 60 s off without a word), the
+    stamps kept are warned about and their pings counted (:data:`CLOCK_NOT_FOUND`)."""
     from graphnav.calibration.clock import MIN_PEAK, explained_as_stamped
     from graphnav.calibration.reference import DVL_OFFSET_SEARCH_S
-    if not explained_as_stamped(imu, dvl, cfg) < MIN_PEAK:
+    here = explained_as_stamped(imu, dvl, cfg)
+    if not here < MIN_PEAK:
         return 0.0
-    found = _trial(lambda meta_: search(imu, meta_), meta)
-    if found is None or abs(found) <= DVL_OFFSET_SEARCH_S:
+    est = _trial_estimate(search, imu, dvl, meta)
+    if est is not None and not est["confident"]:
+        say_doubted(meta, "dvl", dvl.source, f"{_clock_not_found_said(est)}, and the IMU explains {here:.2f} of them "
+                    f"at its stamps as read (under {MIN_PEAK:g}): its stamps are kept as read, and a DVL off its clock "
+                    "is judged and fused there: give dvl_time_offset_s if it is known", CLOCK_NOT_FOUND, len(dvl.t),
+                    stacklevel=4)
+    if est is None or not est["confident"] or abs(est["offset_s"]) <= DVL_OFFSET_SEARCH_S:
         return 0.0
     return search(imu, meta)            # again, for its warning and notes
 
@@ -1164,13 +1172,13 @@ def _unit_finds_the_clock(err: DataError | None, search, imu: ImuData, dvl: DvlD
 
 def _trial_estimate(search, imu: ImuData, dvl: DvlData, meta: dict) -> dict | None:
     """The DVL clock ``search(imu, meta, dvl)`` as a :func:`_trial`: its estimate (``clock_offsets["dvl"]``), None
-    where it finds none."""
+    where it finds none (a DataError, or too few pings to estimate it)."""
     tried: list[dict] = []
 
     def run(meta_: dict) -> float:
         tried.append(meta_)
         return search(imu, meta_, dvl)
-    return None if _trial(run, meta) is None else tried[0]["clock_offsets"]["dvl"]
+    return None if _trial(run, meta) is None else tried[0].get("clock_offsets", {}).get("dvl")
 
 
 def _speed_refused(meta: dict) -> int:
