@@ -1111,6 +1111,20 @@ def test_an_akit_folder_without_gt_whose_dvl_is_a_few_tenths_of_a_second_off_loa
         assert m.meta["streams"]["dvl"]["doubted"] == {AKIT_DVL_CLOCK_DOUBT: len(m.dvl.t)}
 
 
+@pytest.mark.parametrize("name", ["Trajectory1", "Trajectory11"])
+def test_an_akit_folder_without_gt_with_most_dvl_rows_removed_keeps_the_vehicles_offset(akit_dir, tmp_path, name):
+    """Without GT, a DVL file with 70 % of its rows removed had its stamps kept as read (not taken for the published
+    grid), 0.25 % slow against the rescaled IMU, and the clock fit moved it by the mean of that drift (0.67 s on
+    Trajectory1, 0.85 s on Trajectory11), warned and counted. Its stamps are now rescaled as the full file's, and it
+    loads at the vehicle's +1.02 s without a doubt, the holes warned about."""
+    folder = _akit_crop_without_gt(akit_dir / name, tmp_path, np.eye(3), 400.0, dvl_rows_removed=0.7)
+    m, said = _loaded_saying_dvl(folder)
+    assert m.config.dvl_time_offset_s == 1.02 and "doubted" not in m.meta["streams"]["dvl"], said
+    assert any("row(s) missing from the 1.00251 s stamp grid" in s for s in said), said
+    dt = np.diff(m.dvl.t)                   # whole periods of the 1 Hz sensor, not of the 1.0025 s published step
+    np.testing.assert_allclose(dt, np.round(dt), atol=1e-6)
+
+
 def test_an_akit_dvl_whose_clock_fit_points_seconds_away_without_a_clear_offset_is_said_in_the_default_warning(
         sim, monkeypatch):
     """A noisier A-KIT DVL 3 s late without GT (0.04 m/s added: fits at -2.7..-3.3 s explaining under 0.2) kept the
