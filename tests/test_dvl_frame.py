@@ -788,10 +788,11 @@ def test_a_dvl_turned_90_deg_on_a_vehicle_holding_its_speed_is_still_warned_abou
                                              fixes=dvl_scale.AKIT_DVL_FIXES)
 
 
-def _akit_crop_without_gt(src, dst, C, seconds=200.0, start=0.0, gt=False, imu_signs=(1, 1, 1), dvl_shift=0.0):
+def _akit_crop_without_gt(src, dst, C, seconds=200.0, start=0.0, gt=False, imu_signs=(1, 1, 1), dvl_shift=0.0,
+                          dvl_rows_removed=0.0):
     """The IMU and DVL files of the A-KIT folder ``src`` cut to ``seconds`` from ``start`` (no GT file, as a vehicle
     has them, unless ``gt``) in ``dst``, the DVL velocity columns multiplied by ``C`` (3,3) and its stamps moved
-    ``dvl_shift`` s, the IMU's axes by ``imu_signs``."""
+    ``dvl_shift`` s, that share of its rows removed at random (seeded), the IMU's axes by ``imu_signs``."""
     from graphnav.io.loaders import AKIT_COLUMNS, akit_files, read_csv
     dst = dst / src.name
     dst.mkdir(parents=True)
@@ -803,6 +804,8 @@ def _akit_crop_without_gt(src, dst, C, seconds=200.0, start=0.0, gt=False, imu_s
         if kind == "DVL":
             rows[:, 1:4] = rows[:, 1:4] @ np.asarray(C).T
             rows[:, 0] += dvl_shift
+            removed = np.random.default_rng(1).choice(len(rows), int(round(dvl_rows_removed * len(rows))), False)
+            rows = np.delete(rows, removed, axis=0)
         if kind == "IMU":
             rows[:, 1:] *= np.tile(imu_signs, 2)
         np.savetxt(dst / path.name, rows, delimiter=",", fmt="%.12g", comments="", header=",".join(AKIT_COLUMNS[kind]))
@@ -1180,6 +1183,14 @@ def test_an_akit_folder_without_gt_has_its_given_dvl_time_offset_judged(akit_dir
         assert doubted == {"dvl_time_offset_s used as given though the data disagree": 200}, doubted
 
 
+def _loaded_saying_dvl(folder):
+    """(the mission loaded from ``folder``, the messages of its warnings that name the DVL)."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        m = load_mission(folder)
+    return m, [str(w.message) for w in caught if "DVL" in str(w.message)]
+
+
 @pytest.mark.parametrize("name, seconds, start, shift", [("Trajectory1", 400.0, 0.0, 3.0),
                                                          ("Trajectory5", 60.0, 240.0, 2.5),
                                                          ("Trajectory11", 120.0, 140.0, -1.5)])
@@ -1191,12 +1202,7 @@ def test_an_akit_folder_without_gt_whose_dvl_is_seconds_off_loads_where_the_cloc
     about naming the offset and dvl_time_offset_s, and its pings are counted as doubted; the clean copy loads at +1.02 s
     with the default's warning and no doubt, as before."""
     src = akit_dir / name
-
-    def loaded(folder):
-        with warnings.catch_warnings(record=True) as caught:
-            warnings.simplefilter("always")
-            m = load_mission(folder)
-        return m, [str(w.message) for w in caught if "DVL" in str(w.message)]
+    loaded = _loaded_saying_dvl
     clean, said = loaded(_akit_crop_without_gt(src, tmp_path / "clean", np.eye(3), seconds, start))
     assert clean.config.dvl_time_offset_s == 1.02 and "doubted" not in clean.meta["streams"]["dvl"]
     assert len(said) == 1 and "no GT file, so the DVL time offset cannot be estimated; using this vehicle's +1.02 s" \
@@ -1216,6 +1222,46 @@ def test_an_akit_folder_without_gt_whose_dvl_is_seconds_off_loads_where_the_cloc
     kept = m.meta["clock_offsets"]["dvl"]
     assert kept["offset_s"] == m.config.dvl_time_offset_s, kept
     assert abs(kept["coarse_offset_s"] - kept["offset_s"]) < 0.5, kept
+
+
+@pytest.mark.parametrize("name, seconds, start, shift", [("Trajectory5", 120.0, 180.0, 0.3),
+                                                         ("Trajectory11", 400.0, 0.0, -0.35),
+                                                         ("Trajectory1", 200.0, 0.0, 0.45)])
+def test_an_akit_folder_without_gt_whose_dvl_is_a_few_tenths_of_a_second_off_loads_where_the_clock_fit_puts_it(
+        akit_dir, tmp_path, name, seconds, start, shift):
+    """Without GT a DVL file 0.3-0.45 s late or early loaded that far off at the vehicle's +1.02 s: the fit, within
+    0.06 s of the truth, was used only beyond 0.5 s. It is now beyond 0.2 s (1.5x its largest departure on the clean
+    ten and their pieces), warned about and counted, and lands within 0.1 s of the clean copy at +1.02 s. A copy with 3
+    % of its DVL rows removed, shifted or not, is placed as the full one is: not moved when not shifted."""
+    src = akit_dir / name
+    clean, _ = _loaded_saying_dvl(_akit_crop_without_gt(src, tmp_path / "clean", np.eye(3), seconds, start))
+    assert clean.config.dvl_time_offset_s == 1.02
+    from graphnav.calibration.preparation import AKIT_DVL_CLOCK_DOUBT
+    for removed in (0.0, 0.03):
+        kept, said = _loaded_saying_dvl(_akit_crop_without_gt(src, tmp_path / f"kept{removed}", np.eye(3), seconds,
+                                                              start, dvl_rows_removed=removed))
+        assert kept.config.dvl_time_offset_s == 1.02 and "doubted" not in kept.meta["streams"]["dvl"], said
+        m, said = _loaded_saying_dvl(_akit_crop_without_gt(src, tmp_path / f"off{removed}", np.eye(3), seconds, start,
+                                                           dvl_shift=shift, dvl_rows_removed=removed))
+        assert m.config.dvl_time_offset_s == pytest.approx(1.02 - shift, abs=0.1), said
+        placed = [s for s in said if "no GT file, and the DVL clock fit" in s]
+        assert len(placed) == 1 and f"{m.config.dvl_time_offset_s:+.3f} s is used. Give dvl_time_offset_s" \
+            in placed[0], said
+        assert m.meta["streams"]["dvl"]["doubted"] == {AKIT_DVL_CLOCK_DOUBT: len(m.dvl.t)}
+
+
+@pytest.mark.parametrize("name", ["Trajectory1", "Trajectory11"])
+def test_an_akit_folder_without_gt_with_most_dvl_rows_removed_keeps_the_vehicles_offset(akit_dir, tmp_path, name):
+    """Without GT, a DVL file with 70 % of its rows removed had its stamps kept as read (not taken for the published
+    grid), 0.25 % slow against the rescaled IMU, and the clock fit moved it by the mean of that drift (0.67 s on
+    Trajectory1, 0.85 s on Trajectory11), warned and counted. Its stamps are now rescaled as the full file's, and it
+    loads at the vehicle's +1.02 s without a doubt, the holes warned about."""
+    folder = _akit_crop_without_gt(akit_dir / name, tmp_path, np.eye(3), 400.0, dvl_rows_removed=0.7)
+    m, said = _loaded_saying_dvl(folder)
+    assert m.config.dvl_time_offset_s == 1.02 and "doubted" not in m.meta["streams"]["dvl"], said
+    assert any("row(s) missing from the 1.00251 s stamp grid" in s for s in said), said
+    dt = np.diff(m.dvl.t)                   # whole periods of the 1 Hz sensor, not of the 1.0025 s published step
+    np.testing.assert_allclose(dt, np.round(dt), atol=1e-6)
 
 
 def test_an_akit_dvl_whose_clock_fit_points_seconds_away_without_a_clear_offset_is_said_in_the_default_warning(

@@ -530,6 +530,21 @@ def test_published_period_factor_is_the_files_own_and_survives_a_cut():
     assert published_period_factor(np.linspace(0.0, 400.0, 39999), 100.0) == pytest.approx(39998 / 40000, rel=1e-12)
 
 
+
+@pytest.mark.parametrize("removed", [0.5, 0.7])
+def test_a_published_grid_with_most_of_its_rows_removed_is_still_the_grid(removed):
+    """A grid with 50-70 % of its rows removed at random (the median step spans a hole) was taken for no grid and kept
+    as read, 0.25 % slow against the rescaled IMU; it gets the published factor. Stamps with a short interval that is
+    not the grid's (a logger's burst) are still not a grid."""
+    from graphnav.io.loaders import grid_step, published_period_factor
+    t = np.linspace(0.0, 400.0, 400)
+    rng = np.random.default_rng(1)
+    kept = np.sort(rng.choice(400, int(400 * (1 - removed)), replace=False))
+    assert published_period_factor(t[kept], 1.0) == pytest.approx(399 / 400, rel=1e-12)
+    assert grid_step(t[kept]) == pytest.approx(400 / 399, rel=1e-12)
+    burst = np.sort(np.concatenate([t[kept], [t[kept][10] + 0.3]]))
+    assert published_period_factor(burst, 1.0) is None
+
 def test_an_akit_folder_cut_short_reads_with_the_full_folders_stamps(tmp_path):
     """The first rows of a published folder (a log cut short) get the full folder's stamps, row for row: the
     rescale comes from the stamp step, not from the last stamp."""

@@ -20,7 +20,8 @@ A-KIT folders (:func:`graphnav.io.loaders.read_akit_mission`; the module docstri
    DVL stamps lie off the IMU span, or on it further off than that search reaches
    (:func:`graphnav.calibration.clock.align_stream_clocks`). Without a GT file the
    DVL offset is that coarse offset or the vehicle's :data:`~graphnav.io.loaders.AKIT_DVL_TIME_OFFSET_S`, unless the
-   DVL clock fit puts the DVL clearly off it (:func:`_akit_dvl_offset_without_gt`: its offset then, warned and counted).
+   DVL clock fit puts the DVL clearly off it (:func:`_akit_dvl_offset_without_gt`: beyond 0.2 s, its offset then,
+   warned and counted).
    A DVL that follows the GT at no offset (another frame, other units) is a DataError. A GT offset a configuration
    (or a written folder's) gives gets the GT clock search on the stamps it gives, as a log's does
    (:func:`_given_reference_clock`), then the fine search's judge: one the data contradict (either search) is used
@@ -529,12 +530,15 @@ def _prepare_akit_without_gt(mission: Mission, meta: dict, facts: dict, cfg: Sen
 #: Without a GT file, the DVL clock fit replaces the vehicle's DVL time offset
 #: (:data:`~graphnav.io.loaders.AKIT_DVL_TIME_OFFSET_S`) where it is confident and puts the DVL further than this (s)
 #: and 3 of its sigmas from it (:func:`_akit_dvl_offset_without_gt`). Measured on the ten shared trajectories without
-#: GT (the fit within +-:data:`GIVEN_DVL_CLOCK_SEARCH_S` of +1.02 s), what it adds: -0.001..+0.033 s whole (sigmas
-#: 0.002-0.014 s), -0.034..+0.055 s on 200 s pieces (20), -0.027..+0.054 s on 120 s (30), -0.042..+0.130 s on 60 s
-#: (40; sigmas up to 0.077 s), all confident; the same 100 pieces with the DVL stamps 1.5-6 s late or early: all
-#: confident, as far from the truth as clean. Half the 1 s ping period: 3.8x the largest clean (a 60 s piece), a third
-#: of the least shift tried.
-AKIT_DVL_CLOCK_MARGIN_S = 0.5
+#: GT (the fit within +-:data:`GIVEN_DVL_CLOCK_SEARCH_S` of +1.02 s), what it adds: -0.001..+0.033 s whole, within
+#: 0.054 s on 120-200 s pieces, -0.096..+0.130 s on 60 s pieces (150 copies; sigmas up to 0.073 s), within 0.087 s with
+#: 1-5 % of the DVL rows removed (240 copies), all confident. With the stamps moved 0.1-0.5 s either way (700 copies)
+#: the fit stays within -0.08..+0.14 s of the offset estimated against the GT. 1.5x the largest clean departure (0.195
+#: s), rounded; chosen so leaving two trajectories out at a time (0.144-0.195 s), it moved none of the held-out clean or
+#: rows-removed copies and placed every shift of 0.3 s or more, 89 of 140 of 0.2 s, 4 of 140 of 0.1 s. At 0.2 s on all
+#: ten: 139 of 140 shifts of 0.3 s (not the 60 s piece that departs most clean), 71 of 140 of 0.2 s, each within 0.135 s
+#: of the GT's offset. It was 0.5 s (half the ping period), and a DVL file 0.3-0.45 s off loaded that far off.
+AKIT_DVL_CLOCK_MARGIN_S = 0.2
 #: Why the pings of an A-KIT DVL placed by the clock fit, not at the vehicle's offset, are counted as doubted.
 AKIT_DVL_CLOCK_DOUBT = "DVL time offset from the DVL clock fit, off the vehicle's (no GT file to check it against)"
 
@@ -546,8 +550,9 @@ def _akit_dvl_offset_without_gt(dvl: DvlData, imu: ImuData, cfg: SensorConfig, m
     accelerations) is confident and puts the DVL further than :data:`AKIT_DVL_CLOCK_MARGIN_S` and 3 sigmas from it.
     Its offset is then used, warned about naming it and ``dvl_time_offset_s``, and the pings are counted as doubted
     (:data:`AKIT_DVL_CLOCK_DOUBT`): a DVL file 2.5-3.5 s late was loaded that far off the IMU clock with only the
-    default's warning. A fit that cannot judge leaves the default, noted; one without a clear offset that points
-    further than the margin from it is said in the default's warning."""
+    default's warning, and one 0.3-0.45 s off (under the 0.5 s margin of then) as well. A fit that cannot judge leaves
+    the default, noted; one without a clear offset that points further than the margin from it is said in the
+    default's warning."""
     from graphnav.io.loaders import AKIT_COLUMNS, AKIT_DVL_TIME_OFFSET_S
     default = AKIT_DVL_TIME_OFFSET_S
     try:
