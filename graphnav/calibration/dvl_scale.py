@@ -481,10 +481,11 @@ def check_imu_y(imu, dvl, config, meta: dict, frame: dict, model, yaw: int, offs
             "read)", imu.source, field=frame["fields"]))
     if not undecided:
         return ""
-    if q_read >= IMU_YAW_MIN_Q:
-        return (f". Or the IMU's y is negated on the accelerometer and the gyro (a left-handed axis set, which its tilt "
-                f"kinematics cannot tell here): that fits {q_read:.3g} noise variances better than as read and within "
-                f"{abs(q_turn):.0f} of the turn; if so, set imu_axis_signs {signs} in the configuration")
+    if q_read >= IMU_YAW_MIN_Q:         # the turn fits about as well, or clearly better (then named alone)
+        return "" if q_turn <= -IMU_YAW_MIN_Q else (
+            f". Or the IMU's y is negated on the accelerometer and the gyro (a left-handed axis set, which its tilt "
+            f"kinematics cannot tell here): that fits {q_read:.3g} noise variances better than as read and within "
+            f"{abs(q_turn):.0f} of the turn; if so, set imu_axis_signs {signs} in the configuration")
     if q_read <= -IMU_YAW_MIN_Q:
         add_note(meta, "imu", f"its y axis sign judged against the DVL instead: the velocity fits the IMU as read "
                               f"better than with y negated by {-q_read:.3g} noise variances")
