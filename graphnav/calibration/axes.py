@@ -411,11 +411,11 @@ def _detect_without_gt(imu, source: str, fallback_signs) -> AxisDetection:
         notes.append(f"the tilt kinematics fit y as recorded and y flipped within {AXIS_MARGIN_LEVEL:g}x ({keep:.2e} "
                      f"vs {flip:.2e} rad/s) on a nearly level vehicle (median tilt rate {tilt:.2e} rad/s, under "
                      f"{GYRO_TILT_MIN_RADPS:g}), whose accelerations in turns its accelerometer's gravity direction "
-                     f"follows as much as its tilt; the configured convention is used")
+                     f"follows as much as its tilt")
     else:
         signs = np.asarray(fallback_signs, float).copy()
         notes.append(f"the tilt kinematics fit y as recorded and y flipped within {AXIS_MARGIN_JOINT:g}x "
-                     f"({keep:.2e} vs {flip:.2e} rad/s): too little tilt motion; the configured convention is used")
+                     f"({keep:.2e} vs {flip:.2e} rad/s): too little tilt motion")
     check.gyro_map = check.accel_map = np.diag(signs)
     check.suspects = describe_axis_map(np.diag(signs), "gyro") + describe_axis_map(np.diag(signs), "accelerometer")
     return AxisDetection(signs, check, None, decided, notes)
@@ -480,10 +480,11 @@ FRAME_FAULTS = {(1, -1, -1): "FLU axes (ROS REP-103), or an IMU mounted upside d
 
 
 def declared_frame_signs(imu, config: SensorConfig, gt=None, source: str = "IMU", field: str = "omega_b"
-                         ) -> tuple[np.ndarray, str]:
-    """``(signs, how)``: the signs the IMU's x, y, z (accelerometer and gyro, in the FRD frame a loader turned
-    them into by a declaration) need according to the data, ones when the data agree or cannot tell; ``how``
-    says what saw it.
+                         ) -> tuple[np.ndarray, str, str | None]:
+    """``(signs, how, undecided)``: the signs the IMU's x, y, z (accelerometer and gyro, in the FRD frame a loader
+    turned them into by a declaration) need according to the data, ones when the data agree or cannot tell; ``how``
+    says what saw it; ``undecided``: why the data could not tell the y as read from the y negated (a level vehicle,
+    too little rotation), None when they did.
 
     The detection of :func:`detect_imu_axis_signs` with no convention assumed. With ``gt`` (on the IMU clock):
     the gyro against its attitude, taken when decided. Without: z from gravity (an FRD IMU reads -g on z, so
@@ -503,13 +504,18 @@ def declared_frame_signs(imu, config: SensorConfig, gt=None, source: str = "IMU"
         how += ("; x taken forward, an assumption: without a GT a 180 deg turn about z cannot be seen"
                 + (" (an IMU pitched 180 deg, x aft and z up, needs (-1, 1, -1) and gets (1, -1, -1))" if z < 0 else "")
                 + ", and its heading would then be 180 deg off")
-        return np.asarray(detection.signs, float), how
+        return np.asarray(detection.signs, float), how, _undecided(detection)
     try:
         detection = detect_imu_axis_signs(imu, config, gt, source, fallback_signs=(1.0, 1.0, 1.0))
     except DataError as exc:
         raise _turned(imu, config, gt, source, field) or exc from None
     signs = np.asarray(detection.signs, float) if detection.decided else np.ones(3)
-    return signs, "the gyro against the GT attitude"
+    return signs, "the gyro against the GT attitude", _undecided(detection)
+
+
+def _undecided(detection: AxisDetection) -> str | None:
+    """Why a detection could not tell the y as read from the y negated (its last note), None when it did."""
+    return None if detection.decided else detection.notes[-1]
 
 
 def _turned(imu, config: SensorConfig, gt, source: str, field: str) -> DataError | None:

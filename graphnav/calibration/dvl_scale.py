@@ -292,6 +292,23 @@ def imu_yaw_fit(read, imu, dvl, config, offsets=(0.0,)) -> tuple[float, int, flo
     return _evidence(fits[0], fits[yaw]), yaw, _evidence(fits[nxt], fits[yaw])
 
 
+#: The IMU axis signs of a y axis negated on both sensors (a left-handed axis set: x forward, y port, z down).
+Y_NEGATED = np.array([1.0, -1.0, 1.0])
+
+
+def y_negated_fit(read, imu, dvl, config, yaw: int, offsets=(0.0,)) -> tuple[float, float]:
+    """``(q_read, q_turn)``: how much better (noise variances, as :func:`imu_yaw_fit`'s) the clock model ``read`` fits
+    with the IMU's y negated on the accelerometer and gyro (:data:`Y_NEGATED`) than as read, and than with the IMU
+    turned ``yaw`` deg about z. A y negated on both sensors is no turn (it makes the axes left-handed) and no motion
+    explains it: the centripetal acceleration in turns reads on the wrong side, which a turn of 180 deg puts right
+    (and the acceleration along x wrong), so a vehicle that turns more than it speeds up fits it turned."""
+    T = turn_about_z(yaw).T
+    turned, _ = dvl_window_model(imu, dvl, config, lever_arm_b=T @ config.dvl.lever_arm_b, transform=T, ints=read.imu)
+    negated = dataclasses.replace(imu, f_b=imu.f_b * Y_NEGATED, omega_b=imu.omega_b * Y_NEGATED)
+    fits = _best_fits({0: read, yaw: turned, "y": dvl_window_model(negated, dvl, config)[0]}, offsets)
+    return _evidence(fits[0], fits["y"]), _evidence(fits[yaw], fits["y"])
+
+
 def _best_fits(models: dict, offsets) -> dict:
     """Each clock model's ``(unexplained, residuals)`` (``models``: of the same DVL stamps and IMU integrals, keyed):
     the share of the DVL velocity's changes it leaves unexplained at the offset among ``offsets`` (s) where it fits
@@ -337,12 +354,13 @@ def _best_offsets(models: dict, near: dict, reach: float | None = None) -> dict:
     first = next(iter(models.values()))
     use = None if reach is None else (_window_reach(first) >= reach)[:, None] & first.real
     for o in np.unique(np.concatenate(list(near.values()))):
-        at = None
+        at = {}                         # per IMU integrals: models of one IMU share them
         for k in (k for k in models if np.isin(o, near[k])):
-            at = models[k].imu_at(o, use) if at is None else at
-            score = models[k].score(o, at=at)
+            ints = id(models[k].imu)
+            at[ints] = at[ints] if ints in at else models[k].imu_at(o, use)
+            score = models[k].score(o, at=at[ints])
             if k not in best or score[0] > best[k][1][0]:
-                best[k] = (o, score, int(np.count_nonzero(at[0])) if score[2] else 0)
+                best[k] = (o, score, int(np.count_nonzero(at[ints][0])) if score[2] else 0)
     return best
 
 
@@ -409,13 +427,18 @@ def check_imu_yaw(imu, dvl, config, meta: dict, frame: dict, model=None, offsets
                               "seen then only against a reference attitude")
         return
     q, yaw, q_next = imu_yaw_fit(model, imu, dvl, config, offsets)
+    undecided = meta.get("imu_axis_signs", {}).get("decided") is False
+    or_y = ""
+    if q >= IMU_YAW_MIN_Q or undecided:
+        # a y negated on both sensors fits a vehicle that turns more than it speeds up turned 180 deg
+        or_y = check_imu_y(imu, dvl, config, meta, frame, model, yaw, offsets, undecided)
     if carried and q >= IMU_YAW_MIN_Q:
-        raise _unless_declared_earth(meta, _either_turned(imu, dvl, frame, q, yaw, float("nan"), carried))
+        raise _unless_declared_earth(meta, _either_turned(imu, dvl, frame, q, yaw, float("nan"), carried), or_y)
     course = _course(dvl, config) if q >= IMU_YAW_MIN_Q else 0.0
     if not _forward(course):
         if _forward(np.angle(np.exp(1j * (course - np.deg2rad(yaw))))):
             return yaw      # the DVL is the one turned (turned back, its velocity points forward)
-        raise _unless_declared_earth(meta, _either_turned(imu, dvl, frame, q, yaw, course))
+        raise _unless_declared_earth(meta, _either_turned(imu, dvl, frame, q, yaw, course), or_y)
     if abs(q) < IMU_YAW_MIN_Q:
         add_note(meta, "imu", f"its mounting about z not judged against the DVL: the velocity changes tell the axes "
                               f"as read from the IMU turned {yaw} deg by {q:+.0f} noise variances ({IMU_YAW_MIN_Q:g} "
@@ -428,14 +451,59 @@ def check_imu_yaw(imu, dvl, config, meta: dict, frame: dict, model=None, offsets
         f"the IMU's axes are turned {yaw} deg about z{other} against {frame['what']}: the DVL velocity (pointing "
         f"forward, in the body frame) fits the accelerometer and gyro better by {q:.3g} noise variances with them "
         f"turned ({IMU_YAW_MIN_Q:g} needed). The IMU is mounted turned against the body frame "
-        f"({mounting_text(turn_about_z(yaw))}): {_imu_turn_fix(yaw, frame)}", imu.source, field=frame["fields"]))
+        f"({mounting_text(turn_about_z(yaw))}): {_imu_turn_fix(yaw, frame)}", imu.source, field=frame["fields"]), or_y)
 
 
-def _unless_declared_earth(meta: dict, exc: DataError) -> DataError:
+def check_imu_y(imu, dvl, config, meta: dict, frame: dict, model, yaw: int, offsets=(0.0,),
+                undecided: bool = False) -> str:
+    """DataError naming the IMU file and its columns (``frame`` as :func:`check_imu_yaw`'s) when the DVL velocity fits
+    the IMU better with its y negated on the accelerometer and gyro than as read and than turned ``yaw`` deg about z
+    (the best turn), each by :data:`IMU_YAW_MIN_Q` noise variances (:func:`y_negated_fit`): a y axis with its sign
+    flipped, which the tilt kinematics of a level vehicle cannot see and a turn of 180 deg mimics. ``undecided``: the
+    IMU alone could not tell the y (``meta["imu_axis_signs"]["decided"]`` False): what the DVL says of it is noted,
+    and where y negated fits better than as read but within :data:`IMU_YAW_MIN_Q` of the turn (the DVL off its clock,
+    each fit at its own best offset) the sentence a refusal of the turn adds is returned; else "".
+    Measured (docs/decisions/units-clocks-axes.md): y negated fits level vehicles 1.8e3-3.0e3 better than as read and
+    5.3e2-4.5e3 than the best turn, simulated missions and the ten A-KIT trajectories 1.5e5 and more; as read it fits
+    1.8e3 worse or more; with the IMU or the DVL turned 180 deg, 5.3e2 worse than the turn or more.
+    """
+    q_read, q_turn = y_negated_fit(model, imu, dvl, config, yaw, offsets)
+    signs = tuple(int(x) for x in (np.ones(3) if config.imu_axis_signs is None else config.imu_axis_signs) * Y_NEGATED)
+    if q_read >= IMU_YAW_MIN_Q and q_turn >= IMU_YAW_MIN_Q:
+        raise _unless_declared_earth(meta, DataError(
+            f"the IMU's y axis is negated against {frame['what']}, on the accelerometer and the gyro: the DVL velocity "
+            f"fits them better by {q_read:.3g} noise variances with y negated than as read, and by {q_turn:.3g} than "
+            f"with the IMU turned {yaw} deg about z ({IMU_YAW_MIN_Q:g} needed). Their y negated together makes the "
+            "axes left-handed (x forward, y port, z down), which no mounting gives: a sign in the driver or the "
+            "logger's axis convention"
+            + (" (the IMU alone cannot see it here: its tilt kinematics fit either y)" if undecided else "")
+            + f". Set imu_axis_signs {signs} in the configuration (it multiplies the accelerometer and gyro x, y, z as "
+            "read)", imu.source, field=frame["fields"]))
+    if not undecided:
+        return ""
+    if q_read >= IMU_YAW_MIN_Q:         # the turn fits about as well, or clearly better (then named alone)
+        return "" if q_turn <= -IMU_YAW_MIN_Q else (
+            f". Or the IMU's y is negated on the accelerometer and the gyro (a left-handed axis set, which its tilt "
+            f"kinematics cannot tell here): that fits {q_read:.3g} noise variances better than as read and within "
+            f"{abs(q_turn):.0f} of the turn; if so, set imu_axis_signs {signs} in the configuration")
+    if q_read <= -IMU_YAW_MIN_Q:
+        add_note(meta, "imu", f"its y axis sign judged against the DVL instead: the velocity fits the IMU as read "
+                              f"better than with y negated by {-q_read:.3g} noise variances")
+        meta["imu_axis_signs"].update(decided=True, by="the DVL")
+    else:
+        add_note(meta, "imu", f"its y axis sign not judged against the DVL either: the velocity changes tell y as read "
+                              f"from y negated by {-q_read:+.0f} noise variances ({IMU_YAW_MIN_Q:g} needed)")
+    return ""
+
+
+def _unless_declared_earth(meta: dict, exc: DataError, or_y: str = "") -> DataError:
     """``exc``, a turn between the IMU and the DVL, saying first that the DVL velocity was kept in its declared vehicle
     frame against the frame checks (:data:`~graphnav.io.dvl_frame.KEPT_AS_DECLARED`): an earth-fixed velocity declared
     body fits the IMU turned by the vehicle's heading, and its frame, not the IMU, is then what to fix; so does a
-    vehicle-fixed velocity declared in an earth frame, which its attitude columns turn by the heading."""
+    vehicle-fixed velocity declared in an earth frame, which its attitude columns turn by the heading. ``or_y``: the
+    sentence naming the IMU's y negated, which fits about as well (:func:`check_imu_y`), added."""
+    if or_y:
+        exc = DataError(exc.message + or_y, exc.source, field=exc.field)
     kept = meta.get(KEPT_AS_DECLARED)
     if not kept:
         return exc

@@ -34,9 +34,11 @@ A-KIT folders (:func:`graphnav.io.loaders.read_akit_mission`; the module docstri
 
 Bags, CSV logs and PD0 files: the IMU frame the column map or the bag's frame_id declares is checked by the same
 detection (:func:`graphnav.calibration.axes.declared_frame_signs`): data that contradict a frame a user declared are a
-DataError, an implied frame is corrected with a warning; without a reference attitude on the IMU clock, an IMU
-turned about z is found against the DVL (:func:`graphnav.calibration.dvl_scale.check_imu_yaw`; an A-KIT folder
-without GT gets it with the DVL's unit, yaw and FLU checks as logs and bags do,
+DataError, an implied frame is corrected with a warning; where the data cannot tell the y (a level vehicle's tilt
+kinematics) the declared y is taken and noted, naming ``imu_axis_signs``; without a reference attitude on the IMU
+clock, an IMU turned about z, or with its y negated, is found against the DVL
+(:func:`graphnav.calibration.dvl_scale.check_imu_yaw`, :func:`~graphnav.calibration.dvl_scale.check_imu_y`; an A-KIT
+folder without GT gets it with the DVL's unit, yaw and FLU checks as logs and bags do,
 :func:`~graphnav.calibration.dvl_scale.check_velocity_against_imu`); a depth is checked against the vehicle's
 vertical velocity
 (:func:`graphnav.io.units.depth_convention`: positive up turned down, other units refused); a DVL on a clock of its
@@ -1538,7 +1540,9 @@ def _imu_frame(mission: Mission, meta: dict, frame: dict | None, judge: GroundTr
         return mission
     from graphnav.calibration.axes import FRAME_FAULTS, declared_frame_signs
     imu, gt = mission.imu, judge
-    signs, how = declared_frame_signs(imu, mission.config, gt, imu.source, frame["fields"])
+    signs, how, undecided = declared_frame_signs(imu, mission.config, gt, imu.source, frame["fields"])
+    if undecided:
+        _note_y_undecided(meta, mission.config, frame, signs, undecided)
     if np.all(signs == 1):
         return mission
     applied = mission.config.imu_axis_signs
@@ -1566,10 +1570,25 @@ def _imu_frame(mission: Mission, meta: dict, frame: dict | None, judge: GroundTr
              ": accelerometer and gyro multiplied by them")
     add_note(meta, "imu", text)
     warnings.warn(f"{imu.source}: {text}", RuntimeWarning, stacklevel=4)
-    meta["imu_axis_signs"] = {"signs": (applied * signs).tolist(), "detected": True, "decided": True}
+    meta["imu_axis_signs"] = {"signs": (applied * signs).tolist(), "detected": True, "decided": not undecided}
     config = dataclasses.replace(mission.config, imu_axis_signs=applied * signs)
     imu = dataclasses.replace(imu, f_b=imu.f_b * signs, omega_b=imu.omega_b * signs)
     return dataclasses.replace(mission, imu=imu, config=config)
+
+
+def _note_y_undecided(meta: dict, config: SensorConfig, frame: dict, signs: np.ndarray, why: str) -> None:
+    """Noted on the IMU stream, and ``meta["imu_axis_signs"]["decided"]`` False (the DVL check then judges the y,
+    :func:`graphnav.calibration.dvl_scale.check_imu_yaw`): the data could not tell the IMU's y as read from the y
+    negated on both sensors (``why``: a level vehicle's tilt kinematics, too little rotation against a reference), so
+    the y is taken as ``frame["what"]`` declares it. A note, not a warning: every level vehicle's clean log has it."""
+    applied = np.ones(3) if config.imu_axis_signs is None else np.asarray(config.imu_axis_signs, float)
+    net = applied * signs
+    given = "" if np.all(applied == 1) else f" with imu_axis_signs {tuple(int(x) for x in applied)}"
+    add_note(meta, "imu", f"its y axis sign is not told by the IMU data ({why}): taken as {frame['what']}{given}, "
+                          f"applying {tuple(int(x) for x in net)}; if the file's y points the other way on the "
+                          f"accelerometer and gyro, set imu_axis_signs {tuple(int(x) for x in net * [1, -1, 1])} in "
+                          "the configuration")
+    meta.setdefault("imu_axis_signs", {"signs": net.tolist(), "detected": True})["decided"] = False
 
 
 def _warn_no_heading(config: SensorConfig, source: str, meta: dict, why: str | None = None) -> None:
