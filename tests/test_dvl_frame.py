@@ -117,6 +117,28 @@ def test_a_body_frame_velocity_declared_ned_is_refused_naming_the_key_and_body(s
     assert not got.meta["streams"]["dvl"].get("doubted")
 
 
+@pytest.mark.parametrize("unit, heading", [("rad", "ned"), ("deg", "enu")], ids=["rad declared deg", "ENU yaw"])
+def test_a_true_ned_copy_whose_attitude_columns_are_wrong_is_told_to_check_them_not_to_declare_body(sim, tmp_path,
+                                                                                                 unit, heading):
+    """A true NED copy whose attitude columns are in radians declared 'deg', or whose heading is an ENU yaw (counter-
+    clockwise from east): turned to body by them it turns with the vehicle, and was refused advising first to declare
+    csv_columns.dvl.frame 'body', which then loaded the earth-fixed velocity as body with a counted warning. Its
+    columns as read turn with the vehicle read as body too: the attitude columns are named, 'body' is not advised."""
+    m, t, v_b = sim
+    C_b_n = _euler_at(sim)
+    v_n = np.einsum("kij,kj->ki", C_b_n, v_b)
+    euler = C_b_n_to_euler(C_b_n)
+    if heading == "enu":
+        euler[:, 2] = np.pi / 2 - euler[:, 2]
+    euler = np.degrees(euler) if unit == "deg" else euler
+    cols = {"roll": euler[:, 0], "pitch": euler[:, 1], "yaw": euler[:, 2]}
+    entry = {"frame": "ned", "euler": list(cols), "angle_unit": "deg"}
+    with pytest.raises(DataError, match=r"the columns as read are earth-fixed as declared .* check 'euler' are the "
+                                        r"DVL's roll, pitch and heading .* and 'angle_unit' is their unit") as err:
+        _load(_folder(tmp_path, sim, v_n, entry, cols))
+    assert "declare csv_columns.dvl.frame 'body'" not in str(err.value)
+
+
 def _slow_in_current(seed, speed, current, duration=300.0, noise=0.01, sideways=False, ned=False, tilt_deg=(2.0, 3.0),
                      reverse_at=None, with_attitude=False):
     """A level-ish vehicle at ``speed`` m/s through the water, turning at up to 3 deg/s, in a steady ``current`` m/s:

@@ -45,8 +45,12 @@ of an undeclared frame say so. A declared earth frame is judged as a vehicle fra
 columns: vehicle-fixed columns declared earth-fixed, turned by the heading, turn with the vehicle as an earth-fixed
 velocity read as body does. Where the body kinematics say so clearly (:data:`DECLARED_EARTH_REFUSED`) it is refused
 naming ``csv_columns.dvl.frame`` and ``body``; else kept with a counted warning (:data:`DECLARED_EARTH_DOUBT`).
+Where its columns as read are earth-fixed too (read as body they turn with the vehicle), the attitude columns are
+named instead: their unit or heading convention does not turn the velocity to body.
 """
 from __future__ import annotations
+
+import functools
 
 import numpy as np
 
@@ -162,6 +166,11 @@ def velocity_to_body(v: np.ndarray, frame: str, C_d_b: np.ndarray, euler_d: np.n
     if frame in ("instrument", *EARTH_FRAMES):
         return v @ np.asarray(C_d_b, float).T
     return v
+
+
+def _unflagged(v: np.ndarray) -> np.ndarray:
+    """The velocity ``v`` (M,3, m/s) with the pings where a cell is RDI's bad-velocity flag NaN."""
+    return np.where(rdi_flagged(v).any(axis=1, keepdims=True), np.nan, v)
 
 
 def flagged_not_turned(v: np.ndarray, turned: np.ndarray) -> np.ndarray:
@@ -453,6 +462,26 @@ _DECLARE_VEHICLE = ("declare csv_columns.dvl.frame 'body' (or the vehicle frame 
                     "and heading")
 
 
+#: What to do with a velocity declared in an earth frame that, turned to body by its attitude columns, turns with the
+#: vehicle though its columns as read are earth-fixed (read as body they turn with the vehicle and the body kinematics
+#: do not keep them): the attitude columns do not turn them to body (their unit, their heading's convention or zero),
+#: and declaring 'body' would read an earth-fixed velocity as body.
+_CHECK_ATTITUDE = ("the columns as read are earth-fixed as declared (read as body they turn with the vehicle too), so "
+                   "the attitude columns do not turn them to body: check 'euler' are the DVL's roll, pitch and heading "
+                   "(NED: heading clockwise from north) and 'angle_unit' is their unit; declaring 'body' would read an "
+                   "earth-fixed velocity as body")
+
+
+def _attitude_at_fault(said: dict) -> bool:
+    """Whether a velocity declared in an earth frame (``said``, :func:`velocity_frame`) that turned to body turns with
+    the vehicle has earth-fixed columns as read (``said["columns_as_read"]``, judged once, on the IMU clock only): its
+    attitude columns, not its frame, are then what to check (:data:`_CHECK_ATTITUDE`)."""
+    if "attitude_at_fault" not in said:
+        vehicle_fixed = said.get("columns_as_read")
+        said["attitude_at_fault"] = vehicle_fixed is not None and not vehicle_fixed()
+    return said["attitude_at_fault"]
+
+
 def _said(spec: dict) -> str:
     """How a column map's DVL velocity (``csv_columns.dvl`` ``spec``) got its frame, as the frame messages say it."""
     frame = declared_frame(spec)
@@ -475,6 +504,8 @@ def _column_frame(spec: dict) -> dict:
 
 def _otherwise(said: dict) -> str:
     """What to do if the frame kept (``said``, :func:`velocity_frame`) is wrong, as the frame warnings end."""
+    if said["frame"] in EARTH_FRAMES and _attitude_at_fault(said):
+        return _CHECK_ATTITUDE
     return said.get("otherwise") or f"if it is earth-fixed, {said['declare']}"
 
 
@@ -674,8 +705,10 @@ def refuse_unless_declared(meta: dict | None, source: str, fields: list[str], t_
     declare), else kept as declared with a counted warning (:data:`DECLARED_EARTH_DOUBT`)."""
     earth = said["frame"] in EARTH_FRAMES
     if earth and kin >= DECLARED_EARTH_REFUSED and kin - 1.0 >= 2.0 * (limit - 1.0):
-        raise DataError(f"DVL velocity {said['said']} turns with the vehicle: {why}: they are in the vehicle's "
-                        f"frame, not the {said['frame']} frame: {said['declare']}", source, field=", ".join(fields))
+        fix = _CHECK_ATTITUDE if _attitude_at_fault(said) else \
+            f"they are in the vehicle's frame, not the {said['frame']} frame: {said['declare']}"
+        raise DataError(f"DVL velocity {said['said']} turns with the vehicle: {why}: {fix}", source,
+                        field=", ".join(fields))
     if not (said.get("declared") and meta is not None):
         keep = f"; if it is in the vehicle's frame, {said['keep']}" if said.get("keep") else ""
         raise DataError(f"DVL velocity {said['said']} turns with the vehicle: {why}: {said['declare']}{keep}",
@@ -690,6 +723,8 @@ def refuse_unless_declared(meta: dict | None, source: str, fields: list[str], t_
 def _verdict(said: dict) -> str:
     """What the body kinematics found of a velocity they refuse, in the frame ``said`` (:func:`velocity_frame`): read
     in a vehicle frame, earth-fixed; declared in an earth frame and turned to body, vehicle-fixed as read."""
+    if said["frame"] in EARTH_FRAMES and _attitude_at_fault(said):
+        return "its earth reading (turned back by the gyro's heading) fits, not the body the attitude columns give"
     if said["frame"] in EARTH_FRAMES:
         return "the columns as read (its earth reading, turned back by the vehicle's heading) are vehicle-fixed"
     return "it is earth-fixed (NED/ENU)"
@@ -786,7 +821,7 @@ def columns_to_body(t_dvl: np.ndarray, v: np.ndarray, euler: np.ndarray | None, 
                               "frame with the DVL's own attitude at each ping: give 'euler' (3 columns of the DVL "
                               f"file: roll, pitch, heading) and 'angle_unit' ({' or '.join(ANGLE_UNITS)})")
         euler = euler * ANGLE_UNITS[unit]
-    v_b = np.where(rdi_flagged(v).any(axis=1, keepdims=True), np.nan, velocity_to_body(v, frame, C_d_b, euler))
+    v_b = _unflagged(velocity_to_body(v, frame, C_d_b, euler))
     # an earth frame is judged turned to body: a vehicle-fixed velocity declared earth-fixed, turned by the heading,
     # turns with the vehicle as an earth-fixed one declared body does
     v_judged = v_b if frame in EARTH_FRAMES else v
@@ -798,6 +833,9 @@ def columns_to_body(t_dvl: np.ndarray, v: np.ndarray, euler: np.ndarray | None, 
         given = on_the_imu_clock(t_dvl + given_offset_s, t_imu)
         t_at = t_dvl + given_offset_s if given else t_dvl
         known = spec.get("clock", "auto") == "imu" and given
+        if frame in EARTH_FRAMES:
+            said["columns_as_read"] = functools.partial(_vehicle_fixed, t_at, _unflagged(v), t_imu, f_b,
+                                                        omega_b)
         check_not_earth_frame(t_at, v_judged, t_imu, omega_b, source, fields, said, f_b, v_b, meta, declared,
                               envelope, own_offsets=not known, at_stamps=True)
     else:
