@@ -1286,6 +1286,20 @@ def test_an_akit_folder_without_gt_with_most_dvl_rows_removed_keeps_the_vehicles
     np.testing.assert_allclose(dt, np.round(dt), atol=1e-6)
 
 
+def test_an_akit_folder_without_gt_whose_dvl_clock_fit_has_no_sigma_keeps_the_vehicles_offset(akit_dir, tmp_path):
+    """A 60 s piece of Trajectory5 (from 160 s) without GT, 0.05 m/s of noise added to its DVL: the clock fit, called
+    confident, puts it 0.23 s early with a NaN sigma, and ``max(margin, 3 * NaN)`` kept the 0.2 s margin: the DVL was
+    moved 0.23 s off the clean piece's +1.02 s and counted as doubted. A fit without a sigma does not move it."""
+    from graphnav.io.loaders import AKIT_COLUMNS, read_csv
+    folder = _akit_crop_without_gt(akit_dir / "Trajectory5", tmp_path, np.eye(3), 60.0, 160.0)
+    path = folder / "DVL_trajectory5.csv"
+    rows = read_csv(path, AKIT_COLUMNS["DVL"])
+    rows[:, 1:4] += np.random.default_rng(1).normal(0.0, 0.05, rows[:, 1:4].shape)
+    np.savetxt(path, rows, delimiter=",", fmt="%.12g", comments="", header=",".join(AKIT_COLUMNS["DVL"]))
+    m, said = _loaded_saying_dvl(folder)
+    assert m.config.dvl_time_offset_s == 1.02 and "doubted" not in m.meta["streams"]["dvl"], said
+
+
 def test_an_akit_dvl_whose_clock_fit_points_seconds_away_without_a_clear_offset_is_said_in_the_default_warning(
         sim, monkeypatch):
     """A noisier A-KIT DVL 3 s late without GT (0.04 m/s added: fits at -2.7..-3.3 s explaining under 0.2) kept the

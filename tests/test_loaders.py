@@ -545,6 +545,19 @@ def test_a_published_grid_with_most_of_its_rows_removed_is_still_the_grid(remove
     burst = np.sort(np.concatenate([t[kept], [t[kept][10] + 0.3]]))
     assert published_period_factor(burst, 1.0) is None
 
+
+@pytest.mark.parametrize("rows, clock_s, seed, removed", [(400, 1.7e9, 0, 0.6), (410, 0.0, 0, 0.6), (390, 0.0, 1, 0.5)])
+def test_a_published_grid_with_half_its_rows_or_more_removed_is_the_grid_on_any_clock_and_row_count(
+        rows, clock_s, seed, removed):
+    """The median difference of a grid with half its rows or more removed can be exactly two steps (always so on a
+    Unix clock, whose stamps are 2.4e-7 s apart; here 410 rows) or 1.5 steps (an even count of differences of one and
+    two steps; 390 rows, half removed): the shortest, one step, is then not under half the median, and the grid was
+    kept as read, 0.25 % slow against the rescaled IMU. It gets the published factor."""
+    from graphnav.io.loaders import published_period_factor
+    t = clock_s + np.linspace(0.0, float(rows), rows)
+    kept = np.sort(np.random.default_rng(seed).choice(rows, int(round(rows * (1 - removed))), replace=False))
+    assert published_period_factor(t[kept], 1.0) == pytest.approx((rows - 1) / rows, rel=1e-9)
+
 def test_an_akit_folder_cut_short_reads_with_the_full_folders_stamps(tmp_path):
     """The first rows of a published folder (a log cut short) get the full folder's stamps, row for row: the
     rescale comes from the stamp step, not from the last stamp."""

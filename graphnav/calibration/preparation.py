@@ -565,7 +565,8 @@ def _akit_dvl_offset_without_gt(dvl: DvlData, imu: ImuData, cfg: SensorConfig, m
         not_judged = None if est.confident else (still_velocity_said(est.peak, est.rms) or (
             f"the IMU explains {est.peak:.2f} of the DVL's velocity changes at best, {est.offset_s:+.2f} s from it: "
             "no clear offset"))
-    if not_judged is None and abs(est.offset_s) > max(AKIT_DVL_CLOCK_MARGIN_S, 3.0 * est.sigma_s):
+    # both comparisons: a fit whose sigma is NaN (max() then keeps the margin) moved a noisy 60 s piece 0.23 s
+    if not_judged is None and abs(est.offset_s) > AKIT_DVL_CLOCK_MARGIN_S and abs(est.offset_s) > 3.0 * est.sigma_s:
         offset = default + est.offset_s
         # on the stamps as read, as a clock search's estimate is (its coarse offset too)
         found = dataclasses.replace(est, offset_s=offset, coarse_offset_s=default + est.coarse_offset_s)

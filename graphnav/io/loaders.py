@@ -546,14 +546,22 @@ def grid_step(t: np.ndarray) -> float | None:
     return float(step)
 
 
+#: The median stamp difference spans a hole where the shortest difference is under this fraction of it (a step of
+#: a grid the median fits rounds to one step at 0.75 of it or more; the median of differences of one and two steps
+#: is 1.5 steps).
+STEP_GUESS_HOLE_RATIO = 0.75
+
+
 def _step_guess(dt: np.ndarray) -> float:
-    """A first guess (s) of the grid step of stamps whose differences are ``dt`` (s): their median, or, where more
-    than half the rows are missing (the median then spans a hole and the shortest difference is under half of it), the
-    median of the differences within 1.5x the shortest. A DVL file with 50-70 % of its rows removed was read as not
-    the published grid and kept as read, 0.25 % slow against the rescaled IMU (1 s over 400 s)."""
+    """A first guess (s) of the grid step of stamps whose differences are ``dt`` (s): their median, or, where half the
+    rows or more are missing (the median then spans a hole: the shortest difference is under
+    :data:`STEP_GUESS_HOLE_RATIO` of it), the median of the differences within 1.5x the shortest. A DVL file with
+    50-70 % of its rows removed was read as not the published grid and kept as read, 0.25 % slow against the rescaled
+    IMU (1 s over 400 s). Not half the median: on a Unix clock (stamps 2.4e-7 s apart) the shortest difference, one
+    step, is often exactly half the median, two steps."""
     guess = float(np.median(dt))
     shortest = float(np.min(dt))
-    if 0.0 < shortest < 0.5 * guess:
+    if 0.0 < shortest < STEP_GUESS_HOLE_RATIO * guess:
         return float(np.median(dt[dt < 1.5 * shortest]))
     return guess
 
