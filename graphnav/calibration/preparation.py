@@ -698,14 +698,19 @@ def _clock_beyond_the_fine_search(imu: ImuData, dvl: DvlData, cfg: SensorConfig,
     DVL, about 1 s early, explains -1.3 (Trajectory11) to 0.79 as stamped: the search finds it within the fine
     search's reach, which is left to take it, so they load as before. Where the search finds no clear offset (a DVL
     too noisy for its clock: Trajectory13 60 s late with 0.25 m/s of noise loaded 60 s off without a word), the
-    stamps kept are warned about and their pings counted (:data:`CLOCK_NOT_FOUND`)."""
+    stamps kept are warned about and their pings counted (:data:`CLOCK_NOT_FOUND`), unless the DVL velocity barely
+    changes (a straight steady leg: a note says its clock was not checked)."""
     from graphnav.calibration.clock import MIN_PEAK, explained_as_stamped
     from graphnav.calibration.reference import DVL_OFFSET_SEARCH_S
     here = explained_as_stamped(imu, dvl, cfg)
     if not here < MIN_PEAK:
         return 0.0
     est = _trial_estimate(search, imu, dvl, meta)
-    if est is not None and not est["confident"]:
+    still = est is not None and still_velocity_said(est["peak"], est["rms"])
+    if still:
+        # a DVL holding its velocity is not hurt by a clock the IMU cannot check: noted, not counted as doubted
+        add_note(meta, "dvl", f"clock not checked against the IMU: {still}")
+    elif est is not None and not est["confident"]:
         say_doubted(meta, "dvl", dvl.source, f"{_clock_not_found_said(est)}, and the IMU explains {here:.2f} of them "
                     f"at its stamps as read (under {MIN_PEAK:g}): its stamps are kept as read, and a DVL off its clock "
                     "is judged and fused there: give dvl_time_offset_s if it is known", CLOCK_NOT_FOUND, len(dvl.t),
