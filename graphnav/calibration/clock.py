@@ -259,12 +259,13 @@ def _nearer_the_stamps(imu, dvl, config, min_overlap_s: float, far: ClockOffset)
     """``far``, a DVL's best offset taken off its stamps under the clear peak (:attr:`ClockOffset.off_its_stamps` and
     ``confident``), unless it lies further than :data:`NEAR_REACH_S` from them and explains less than
     :data:`OFF_STAMPS_MIN_GAP` more than the best offset within that reach, the two scored on the pings both keep on the
-    IMU span: then that nearer one, judged on its own, with ``far`` as its ``repeated_at_s``. A ``far`` not taken is
-    left as it is: judged in its place, a nearer one beating the others within the reach moved 200 s logs 30-90 s late
-    (seeds 31, 34, 39; 0.03-0.04 m/s beams), kept on their stamps before, 49-95 s off their clock. A 200 s log with
-    0.035 m/s beams whose DVL lagged 5-10 s was moved 83 s off its clock, to a manoeuvre repeated there (0.148
-    explained over the 116 pings on the IMU span there, 0.097 at the right offset over 193; 0.151 and 0.148 over the
-    116 both keep)."""
+    IMU span: then that nearer one, judged on its own, with ``far`` as its ``repeated_at_s``, where it is itself
+    ``confident`` (else ``far``: the stamps as read, which the nearer would leave, explain it far less). A ``far`` not
+    taken is left as it is: judged in its place, a nearer one beating the others within the reach moved 200 s logs
+    30-90 s late (seeds 31, 34, 39; 0.03-0.04 m/s beams), kept on their stamps before, 49-95 s off their clock. A 200 s
+    log with 0.035 m/s beams whose DVL lagged 5-10 s was moved 83 s off its clock, to a manoeuvre repeated there
+    (0.148 explained over the 116 pings on the IMU span there, 0.097 at the right offset over 193; 0.151 and 0.148 over
+    the 116 both keep)."""
     if not (far.confident and far.off_its_stamps and abs(far.offset_s) > NEAR_REACH_S):
         return far
     try:
@@ -276,7 +277,10 @@ def _nearer_the_stamps(imu, dvl, config, min_overlap_s: float, far: ClockOffset)
     both = with_enough_pings(model.pings(far.offset_s) & model.pings(near.offset_s))
     if not model.score(far.offset_s, both)[0] - model.score(near.offset_s, both)[0] < OFF_STAMPS_MIN_GAP:
         return far
-    return dataclasses.replace(near, stamped=far.stamped, repeated_at_s=far.offset_s)
+    nearer = dataclasses.replace(near, stamped=far.stamped, repeated_at_s=far.offset_s)
+    # a nearer offset the data do not name either would leave the stamps as read, which the far one explains far
+    # better: an 800 s log 30 s late (0.035 m/s beams) was kept 30 s off, its best within the reach +12 s (0.04)
+    return nearer if nearer.confident else far
 
 
 def explained_as_stamped(imu, dvl, config=None, within_s: float = 0.0) -> float:
