@@ -495,7 +495,6 @@ def test_calibrate_declares_the_columns_it_fits_a_mounting_to_in_the_instrument_
     np.testing.assert_allclose(_load((folder, config)).dvl.v_b, v_b, atol=0.03)
 
 
-
 def _given_clock(folder, offset_s, frame=None):
     """``folder`` (:func:`_folder`) with ``dvl_time_offset_s`` = ``offset_s`` and the IMU's ``frame`` declared."""
     cfg = json.loads(folder[1].read_text())
@@ -1716,3 +1715,37 @@ def test_knots_of_a_noisy_dvl_with_blank_pings_are_still_advised_knots(tmp_path,
                                         r"velocity_unit 'kn'") as err:
         _load(_folder(tmp_path, (m, t, v_b), v, {"clock": "auto"}))
     assert "which no smaller velocity unit explains" not in str(err.value)
+
+
+@pytest.mark.parametrize("seed, speed", [(1, 1.5), (2, 1.2)])
+def test_a_level_vehicle_at_auv_speed_with_its_imu_y_negated_is_refused_naming_the_y_axis(sim, tmp_path, seed, speed):
+    """At 1.2-1.5 m/s the velocity's scale fit finds the IMU as read (its y negated) best 20 s off, and the y check
+    read every fit there: the y negated, 0.8 of the velocity changes explained at 0.4 m/s, explained 1.4-1.6 times
+    less than the turn, and the log was refused as an IMU turned 180 deg alone. Each fit at its own best offset, the y
+    negated fits 71-107 noise variances better than the turn: refused naming the y and imu_axis_signs (1, -1, 1)."""
+    m, _, _ = sim
+    t_imu, f_b, omega_b, t, v_b = _slow_in_current(seed, speed, 0.0, tilt_deg=(0.0, 0.0))
+    y_negated = np.array([1.0, -1.0, 1.0])
+    level = dataclasses.replace(m, imu=dataclasses.replace(m.imu, t=t_imu, f_b=f_b * y_negated,
+                                                           omega_b=omega_b * y_negated))
+    with pytest.raises(DataError, match=r"the IMU's y axis is negated .* than with the IMU turned 180 deg about z .*"
+                                        r"Set imu_axis_signs \(1, -1, 1\) in the configuration"):
+        _load(_folder(tmp_path, (level, t, None), v_b))
+
+
+def test_a_level_vehicle_whose_dvl_points_backward_is_not_told_its_imu_y_judged_by_the_dvl(sim, tmp_path):
+    """An IMU y negated and a DVL turned 180 deg differ by x negated, which a level vehicle's turns do not show: the
+    velocity fits the IMU as read 1.2e3 noise variances better than its y negated, and the y was noted judged by the
+    DVL (meta decided True) though it is wrong. Loaded as before with the DVL's turn warned about, now noted as not
+    judged, and the IMU's y left undecided."""
+    m, _, _ = sim
+    t_imu, f_b, omega_b, t, v_b = _slow_in_current(1, 0.4, 0.0, tilt_deg=(0.0, 0.0))
+    y_negated = np.array([1.0, -1.0, 1.0])
+    level = dataclasses.replace(m, imu=dataclasses.replace(m.imu, t=t_imu, f_b=f_b * y_negated,
+                                                           omega_b=omega_b * y_negated))
+    with pytest.warns(RuntimeWarning, match=r"points \+180 deg about z from body x"):
+        got = _load(_folder(tmp_path, (level, t, None), v_b * [-1.0, -1.0, 1.0]))
+    notes = " | ".join(got.meta["streams"]["imu"]["notes"])
+    assert "judged against the DVL instead" not in notes
+    assert re.search(r"its y axis sign not judged against the DVL either: .* it points \+180 deg from body x", notes)
+    assert got.meta["imu_axis_signs"]["decided"] is False

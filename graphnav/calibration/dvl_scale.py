@@ -431,7 +431,10 @@ def check_imu_yaw(imu, dvl, config, meta: dict, frame: dict, model=None, offsets
     or_y = ""
     if q >= IMU_YAW_MIN_Q or undecided:
         # a y negated on both sensors fits a vehicle that turns more than it speeds up turned 180 deg
-        or_y = check_imu_y(imu, dvl, config, meta, frame, model, yaw, offsets, undecided)
+        # each fit at its own best offset over the whole search: the one offset the velocity's scale fit chose for
+        # the IMU as read is where its wrong y fits best (20 s off on a level vehicle at 1.5 m/s), favouring the turn
+        wide = offsets if carried else np.union1d(offsets, SCALE_OFFSETS_S)
+        or_y = check_imu_y(imu, dvl, config, meta, frame, model, yaw, wide, undecided)
     if carried and q >= IMU_YAW_MIN_Q:
         raise _unless_declared_earth(meta, _either_turned(imu, dvl, frame, q, yaw, float("nan"), carried), or_y)
     course = _course(dvl, config) if q >= IMU_YAW_MIN_Q else 0.0
@@ -486,7 +489,16 @@ def check_imu_y(imu, dvl, config, meta: dict, frame: dict, model, yaw: int, offs
             f". Or the IMU's y is negated on the accelerometer and the gyro (a left-handed axis set, which its tilt "
             f"kinematics cannot tell here): that fits {q_read:.3g} noise variances better than as read and within "
             f"{abs(q_turn):.0f} of the turn; if so, set imu_axis_signs {signs} in the configuration")
-    if q_read <= -IMU_YAW_MIN_Q:
+    course = _course(dvl, config)
+    if q_read <= -IMU_YAW_MIN_Q and not _forward(course):
+        # a DVL turned 180 deg fits a y negated IMU as read (the pair differs by x negated, which a level vehicle's
+        # turns do not show): a velocity pointing backward or sideways judges no y
+        add_note(meta, "imu", f"its y axis sign not judged against the DVL either: the velocity fits the IMU as read "
+                              f"better than with y negated by {-q_read:.3g} noise variances, but "
+                              + (f"it points {np.degrees(course):+.0f} deg from body x" if np.isfinite(course) else
+                                 "its pings point no one way (reversing, hovering or moving sideways)")
+                              + ", and a DVL turned 180 deg fits a y negated as read")
+    elif q_read <= -IMU_YAW_MIN_Q:
         add_note(meta, "imu", f"its y axis sign judged against the DVL instead: the velocity fits the IMU as read "
                               f"better than with y negated by {-q_read:.3g} noise variances")
         meta["imu_axis_signs"].update(decided=True, by="the DVL")
