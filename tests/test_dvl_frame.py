@@ -140,13 +140,14 @@ def test_a_true_ned_copy_whose_attitude_columns_are_wrong_is_told_to_check_them_
 
 
 def _slow_in_current(seed, speed, current, duration=300.0, noise=0.01, sideways=False, ned=False, tilt_deg=(2.0, 3.0),
-                     reverse_at=None, with_attitude=False):
+                     reverse_at=None, with_attitude=False, turn_deg_s=3.0, heading_deg=None):
     """A level-ish vehicle at ``speed`` m/s through the water, turning at up to 3 deg/s, in a steady ``current`` m/s:
     the IMU (100 Hz, samples the increments over each step) and the DVL's body-frame velocity over the ground (1 Hz,
     ``noise`` m/s), exact kinematics; ``sideways``: moving along its y (a crabbing ROV); ``tilt_deg``: its roll and
     pitch swings; ``reverse_at``: the time (s) it turns from ``speed`` forward to as fast backward (over about 10 s).
     Returns (t_imu, f_b, omega_b, t_dvl, v_b), and with ``ned`` the same velocity in NED (M,3) too, and with
-    ``with_attitude`` the vehicle's roll, pitch and heading at each ping (M,3, deg) last."""
+    ``with_attitude`` the vehicle's roll, pitch and heading at each ping (M,3, deg) last. ``turn_deg_s``: its turns'
+    largest rate; ``heading_deg``: its heading at the start (default random)."""
     from scipy.spatial.transform import Rotation
 
     from graphnav.core.rotations import euler_to_C_b_n
@@ -157,10 +158,11 @@ def _slow_in_current(seed, speed, current, duration=300.0, noise=0.01, sideways=
     while start < duration:                                     # turns of 30-60 s, legs of 20-50 s between
         length = rng.uniform(30.0, 60.0)
         k = (t >= start) & (t < start + length)
-        rate[k] = sign * np.deg2rad(3.0) * np.sin(np.pi * (t[k] - start) / length) ** 2
+        rate[k] = sign * np.deg2rad(turn_deg_s) * np.sin(np.pi * (t[k] - start) / length) ** 2
         sign = -sign if rng.random() < 0.6 else sign
         start += length + rng.uniform(20.0, 50.0)
     ph = rng.uniform(0.0, 2 * np.pi, 4)
+    ph[2] = ph[2] if heading_deg is None else np.deg2rad(heading_deg)
 
     def attitude(t):
         heading = np.interp(t, np.arange(len(rate)) * dt, np.concatenate([[0.0], np.cumsum(rate[1:] * dt)]))
@@ -240,6 +242,44 @@ def test_a_slow_vehicle_s_body_frame_velocity_declared_ned_is_refused_or_warned_
         got = _load(_folder(tmp_path, (m_slow, t, None), v_n, entry, cols))
     assert not [str(w.message) for w in caught if "turns with the vehicle" in str(w.message)
                 or "cannot tell" in str(w.message)]
+    np.testing.assert_allclose(got.dvl.v_b, v_b, atol=1e-8)
+
+
+@pytest.mark.parametrize("heading_deg, refused", [(137.0, True), (-117.0, True), (53.0, True), (-40.0, False),
+                                                   (45.0, False)])
+def test_body_columns_declared_ned_on_a_vehicle_that_barely_turns_are_refused_or_warned_by_where_they_point(
+        sim, tmp_path, heading_deg, refused):
+    """Body-frame columns declared ``frame: ned`` on a vehicle at 2 m/s that barely turns (0.05 deg/s): the turn and
+    kinematics checks have nothing to judge by, and at headings -40 and +53 deg such columns (A-KIT Trajectory6 and 11,
+    130-190 s) loaded 1.4-1.8 m/s off without a warning. Turned to body by the heading they point off the nose by minus
+    the heading while the columns as read point forward: where a true NED velocity would need a current of 1.5 m/s
+    or more to point so (137, -117, 53 deg off at 2 m/s) refused naming csv_columns.dvl.frame and 'body', under it
+    (-40, 45 deg: 1.3-1.4 m/s) warned about and counted. The true NED copies load as before, without a warning."""
+    m, _, _ = sim
+    t_imu, f_b, omega_b, t, v_b, v_n, euler = _slow_in_current(3, 2.0, 0.0, ned=True,
+                                                               with_attitude=True, turn_deg_s=0.05,
+                                                               heading_deg=heading_deg)
+    m_leg = dataclasses.replace(m, imu=dataclasses.replace(m.imu, t=t_imu, f_b=f_b, omega_b=omega_b))
+    cols = {"roll": euler[:, 0], "pitch": euler[:, 1], "yaw": euler[:, 2]}
+    entry = {"frame": "ned", "euler": list(cols), "angle_unit": "deg"}
+    off = -heading_deg
+    said = (rf"DVL velocity declared in the ned frame, turned to body with the attitude columns \['roll', 'pitch', "
+            rf"'yaw'\], points (sideways or backward|off forward): turned to body it points {re.escape(f'{off:+.0f}')} "
+            r"deg about z from body x on average, while its columns as read point [+-]0 deg")
+    if refused:
+        with pytest.raises(DataError, match=said + r".*they are in the vehicle's frame, not the ned frame: declare "
+                                                   r"csv_columns\.dvl\.frame 'body'") as err:
+            _load(_folder(tmp_path, (m_leg, t, None), v_b, entry, cols))
+        assert "dvl.csv" in str(err.value) and "vx, vy, vz" in str(err.value)
+    else:
+        with pytest.warns(RuntimeWarning, match=said + r".*kept in the ned frame as declared; if the columns are in "
+                                                       r"the vehicle's frame, declare csv_columns\.dvl\.frame 'body'"):
+            got = _load(_folder(tmp_path, (m_leg, t, None), v_b, entry, cols))
+        assert got.meta["streams"]["dvl"]["doubted"][dvl_frame.DECLARED_EARTH_DOUBT] == len(t)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        got = _load(_folder(tmp_path, (m_leg, t, None), v_n, entry, cols))
+    assert not [str(w.message) for w in caught if "dvl.csv" in str(w.message)]
     np.testing.assert_allclose(got.dvl.v_b, v_b, atol=1e-8)
 
 

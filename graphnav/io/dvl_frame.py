@@ -111,9 +111,10 @@ FRAME_DOUBT = "DVL velocity kept in the vehicle's frame, which its turns and kin
 DECLARED_FRAME_DOUBT = "DVL velocity kept in its declared vehicle frame, though its turns say it is earth-fixed"
 #: Why DVL pings declared in an earth frame are counted as doubted where, turned to body by their attitude columns,
 #: the frame checks say they turn with the vehicle, but the body kinematics do not say so clearly
-#: (:data:`DECLARED_EARTH_REFUSED`): the columns may be in the vehicle's frame.
+#: (:data:`DECLARED_EARTH_REFUSED`), or where turned to body it points off forward while its columns as read point
+#: forward (:func:`check_declared_earth_course`): the columns may be in the vehicle's frame.
 DECLARED_EARTH_DOUBT = ("DVL velocity kept in its declared earth frame, though turned to body by its attitude it "
-                        "turns with the vehicle")
+                        "turns with the vehicle or points off forward")
 #: :func:`kinematics_ratio` of a velocity declared in an earth frame, turned to body by its attitude columns and found
 #: turning with the vehicle, at or over which (and twice the margin its noise allows, :func:`_kinematics`) it is
 #: refused: the columns read as body (its earth reading, turned back by the gyro's heading) are what the body
@@ -125,6 +126,23 @@ DECLARED_EARTH_DOUBT = ("DVL velocity kept in its declared earth frame, though t
 #: warned about; of their 115 true NED copies none is refused or warned about by this (2 slow, noisy vehicles carry
 #: the "cannot tell" FRAME_DOUBT warning their body copies carry).
 DECLARED_EARTH_REFUSED = 1.3
+#: A velocity declared in an earth frame whose columns as read point within this of body +x (rad, their mean horizontal
+#: direction) while, turned to body by its attitude columns, it points off forward (:data:`DECLARED_EARTH_OFF_WARNED`)
+#: is body columns turned by the heading (:func:`check_declared_earth_course`): on a straight leg they point off the
+#: vehicle's nose by minus the heading. Body-frame columns as read: -5.0..+1.9 deg on the ten A-KIT trajectories; a
+#: true NED copy's columns point along its course over ground, within this of north only on such a heading.
+DECLARED_EARTH_FORWARD_RAD = np.deg2rad(10.0)
+#: ... warned about and counted (:data:`DECLARED_EARTH_DOUBT`) when it points further off forward than this once
+#: turned to body (an AUV moves mostly forward, :data:`~graphnav.calibration.dvl_scale.FORWARD_COURSE_RAD`; a true
+#: NED copy crabs this far only slower than the current it moves in, or in a strong one), refused where a true earth
+#: frame would need a current of :data:`DECLARED_EARTH_CURRENT_MPS` or more.
+DECLARED_EARTH_OFF_WARNED = np.deg2rad(30.0)
+#: The current (m/s) a true earth-frame velocity pointing so far off forward would need (its median horizontal speed
+#: times the sine of the angle, all of it beyond 90 deg: the smallest current that moves a vehicle going forward so),
+#: from which :func:`check_declared_earth_course` refuses: currents where AUVs work rarely reach it. Measured
+#: (docs/decisions/dvl-frame.md): A-KIT body copies at 2.05 m/s refused from 47 deg off forward, 30-47 deg warned;
+#: simulated slow vehicles in currents up to 1.0 m/s need at most their current, so none is refused.
+DECLARED_EARTH_CURRENT_MPS = 1.5
 #: The ``meta`` key set when a declared frame was kept against the frame checks (the frame's name): said once, not
 #: again by the prepare step's check.
 KEPT_AS_DECLARED = "dvl_frame_kept_as_declared"
@@ -793,6 +811,40 @@ def _check_spread(t_dvl: np.ndarray, v: np.ndarray, v_b: np.ndarray, t_imu: np.n
     refuse_unless_declared(meta, source, fields, t_dvl, said, f"{spread}; {judged}", kin, limit)
 
 
+def check_declared_earth_course(v: np.ndarray, v_b: np.ndarray, heading: np.ndarray, source: str, fields: list[str],
+                                said: dict, meta: dict) -> None:
+    """A velocity declared in an earth frame (``v``, M,3, m/s as read) whose columns as read point forward
+    (:data:`DECLARED_EARTH_FORWARD_RAD`) while turned to body (``v_b``, M,3, m/s) it points off forward
+    (:data:`DECLARED_EARTH_OFF_WARNED`): body columns turned by the ``heading`` column (M, rad), which a vehicle that
+    barely turns gives the turn checks nothing to judge by. Refused where a true earth frame would need a current of
+    :data:`DECLARED_EARTH_CURRENT_MPS` or more to point so, naming
+    ``csv_columns.dvl.frame`` and 'body', else warned about and counted (:data:`DECLARED_EARTH_DOUBT`); a log already
+    kept as declared against the frame checks is not warned about again."""
+    from graphnav.calibration.dvl_scale import _mean_direction
+    as_read, turned = _mean_direction(v), _mean_direction(v_b)
+    if not (abs(as_read) <= DECLARED_EARTH_FORWARD_RAD and abs(turned) > DECLARED_EARTH_OFF_WARNED):
+        return                              # NaN (pointing no one way): nothing to say
+    mean_heading = float(np.angle(np.nanmean(np.exp(1j * heading))))
+    speed = float(np.nanmedian(np.hypot(v_b[:, 0], v_b[:, 1])))
+    current = speed * (np.sin(abs(turned)) if abs(turned) < np.pi / 2 else 1.0)
+    why = (f"turned to body it points {np.degrees(turned):+.0f} deg about z from body x on average, while its columns "
+           f"as read point {np.degrees(as_read):+.0f} deg (an AUV moves mostly forward): body-frame columns turned by "
+           f"the heading column (mean {np.degrees(mean_heading):+.0f} deg) point off the nose by about minus the "
+           f"heading; a true {said['frame'].upper()} velocity points so only for a vehicle crabbing "
+           f"{abs(np.degrees(turned)):.0f} deg on a course within {np.degrees(DECLARED_EARTH_FORWARD_RAD):g} deg of "
+           f"its columns' x, in a current of at least {current:.2f} m/s (at {speed:.2f} m/s over the ground)")
+    if current >= DECLARED_EARTH_CURRENT_MPS:
+        raise DataError(f"DVL velocity {said['said']} points sideways or backward: {why}: they are in the vehicle's "
+                        f"frame, not the {said['frame']} frame: {said['declare']}", source, field=", ".join(fields))
+    if meta.get(KEPT_AS_DECLARED):
+        return
+    from graphnav.core.streams import say_doubted
+    say_doubted(meta, "dvl", source, f"field '{', '.join(fields)}': DVL velocity {said['said']} points off forward: "
+                f"{why}: kept in the {said['frame']} frame as declared; {_otherwise(said)}", DECLARED_EARTH_DOUBT,
+                len(v), stacklevel=3)
+    meta[KEPT_AS_DECLARED] = said["frame"]
+
+
 def columns_to_body(t_dvl: np.ndarray, v: np.ndarray, euler: np.ndarray | None, spec: dict, C_d_b: np.ndarray,
                     t_imu: np.ndarray, omega_b: np.ndarray, source: str, meta: dict, f_b: np.ndarray | None = None,
                     envelope=None, given_offset_s: float = 0.0) -> np.ndarray:
@@ -816,7 +868,8 @@ def columns_to_body(t_dvl: np.ndarray, v: np.ndarray, euler: np.ndarray | None, 
     Raises:
         ConfigError: an earth frame without attitude columns or their unit.
         DataError: a vehicle-frame velocity that turns with the vehicle; an earth-frame one that, turned to body,
-            clearly does (:func:`refuse_unless_declared`).
+            clearly does (:func:`refuse_unless_declared`), or points sideways or backward while its columns as read
+            point forward (:func:`check_declared_earth_course`).
     """
     from graphnav.core.streams import add_note
     from graphnav.core.timeseries import on_the_imu_clock
@@ -855,6 +908,7 @@ def columns_to_body(t_dvl: np.ndarray, v: np.ndarray, euler: np.ndarray | None, 
     if frame == "body":
         return v
     if frame in EARTH_FRAMES:
+        check_declared_earth_course(_unflagged(v), v_b, euler[:, 2], source, fields, said, meta)
         add_note(meta, "dvl", f"velocity columns {fields} in the {frame} frame turned to the DVL frame with the "
                               f"attitude columns {list(spec['euler'])}, then to body by dvl.C_d_b")
     else:
