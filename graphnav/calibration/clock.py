@@ -143,7 +143,12 @@ class ClockOffset:
     def clear(self) -> bool:
         """The peak stands out of the residuals at every other offset (:data:`MIN_PEAK`, :data:`MIN_SSE_RATIO`); an
         offset another further off explains about as well (``repeated_at_s``) is not clear."""
-        return self.peak >= MIN_PEAK and self.sharpness >= MIN_SSE_RATIO and not np.isfinite(self.repeated_at_s)
+        return self.peak >= MIN_PEAK and self.sharpness >= MIN_SSE_RATIO and not self.repeated
+
+    @property
+    def repeated(self) -> bool:
+        """Judged in place of an offset further off that explained about as much (:func:`_nearer_the_stamps`)."""
+        return bool(np.isfinite(self.repeated_at_s))
 
     @property
     def off_its_stamps(self) -> bool:
@@ -170,7 +175,7 @@ class ClockOffset:
         measured = np.isfinite(self.stamped)      # only for a DVL on the IMU span whose peak is not clear
         if not measured:
             del out["stamped"]
-        if not np.isfinite(self.repeated_at_s):
+        if not self.repeated:
             del out["repeated_at_s"]
         out.update(sharpness=self.sharpness, confident=self.confident)
         if measured:
@@ -319,11 +324,6 @@ def _coarse_offset(coarse_model, t_imu: np.ndarray, t_other: np.ndarray, min_ove
     return h, float(grid[i]), float(scores[i]), second
 
 
-def repeated(est: ClockOffset) -> bool:
-    """An offset judged in place of one further off that explained about as much (:func:`_nearer_the_stamps`)."""
-    return bool(np.isfinite(est.repeated_at_s))
-
-
 def repeated_said(est: dict) -> str:
     """The clause saying an offset further off explained about as much (``est``: a :meth:`ClockOffset.to_dict` with
     ``repeated_at_s``); '' without."""
@@ -420,7 +420,7 @@ def align_stream_clocks(imu, dvl, depth=None, meta: dict | None = None, config=N
         return dvl, depth
     text = f"DVL clock offset {est.describe()} estimated from the data and added to the DVL stamps"
     if not est.clear:
-        others = "every other offset" + (f" within {NEAR_REACH_S:g} s of the stamps" if repeated(est) else "")
+        others = "every other offset" + (f" within {NEAR_REACH_S:g} s of the stamps" if est.repeated else "")
         text += (f", though under the clear peak the search asks for ({MIN_PEAK:g} explained, residual ratio "
                  f"{MIN_SSE_RATIO:g}; the DVL noise hides the vehicle's accelerations): the stamps as read explain "
                  f"{est.peak - est.stamped:.2f} less and {others} {est.peak - est.second_peak:.2f} less"

@@ -296,6 +296,12 @@ def imu_yaw_fit(read, imu, dvl, config, offsets=(0.0,)) -> tuple[float, int, flo
 Y_NEGATED = np.array([1.0, -1.0, 1.0])
 
 
+def applied_axis_signs(config) -> np.ndarray:
+    """The IMU axis signs (x, y, z) the configuration already applies to the accelerometer and gyro, ones where it
+    gives none."""
+    return np.ones(3) if config.imu_axis_signs is None else np.asarray(config.imu_axis_signs, float)
+
+
 def y_negated_fit(read, imu, dvl, config, yaw: int, offsets=(0.0,)) -> tuple[float, float]:
     """``(q_read, q_turn)``: how much better (noise variances, as :func:`imu_yaw_fit`'s) the clock model ``read`` fits
     with the IMU's y negated on the accelerometer and gyro (:data:`Y_NEGATED`) than as read, and than with the IMU
@@ -357,7 +363,8 @@ def _best_offsets(models: dict, near: dict, reach: float | None = None) -> dict:
         at = {}                         # per IMU integrals: models of one IMU share them
         for k in (k for k in models if np.isin(o, near[k])):
             ints = id(models[k].imu)
-            at[ints] = at[ints] if ints in at else models[k].imu_at(o, use)
+            if ints not in at:
+                at[ints] = models[k].imu_at(o, use)
             score = models[k].score(o, at=at[ints])
             if k not in best or score[0] > best[k][1][0]:
                 best[k] = (o, score, int(np.count_nonzero(at[ints][0])) if score[2] else 0)
@@ -471,7 +478,7 @@ def check_imu_y(imu, dvl, config, meta: dict, frame: dict, model, yaw: int, offs
     1.8e3 worse or more; with the IMU or the DVL turned 180 deg, 5.3e2 worse than the turn or more.
     """
     q_read, q_turn = y_negated_fit(model, imu, dvl, config, yaw, offsets)
-    signs = tuple(int(x) for x in (np.ones(3) if config.imu_axis_signs is None else config.imu_axis_signs) * Y_NEGATED)
+    signs = tuple(int(x) for x in applied_axis_signs(config) * Y_NEGATED)
     if q_read >= IMU_YAW_MIN_Q and q_turn >= IMU_YAW_MIN_Q:
         raise _unless_declared_earth(meta, DataError(
             f"the IMU's y axis is negated against {frame['what']}, on the accelerometer and the gyro: the DVL velocity "

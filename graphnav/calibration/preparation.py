@@ -1587,12 +1587,13 @@ def _note_y_undecided(meta: dict, config: SensorConfig, frame: dict, signs: np.n
     :func:`graphnav.calibration.dvl_scale.check_imu_yaw`): the data could not tell the IMU's y as read from the y
     negated on both sensors (``why``: a level vehicle's tilt kinematics, too little rotation against a reference), so
     the y is taken as ``frame["what"]`` declares it. A note, not a warning: every level vehicle's clean log has it."""
-    applied = np.ones(3) if config.imu_axis_signs is None else np.asarray(config.imu_axis_signs, float)
+    from graphnav.calibration.dvl_scale import Y_NEGATED, applied_axis_signs
+    applied = applied_axis_signs(config)
     net = applied * signs
     given = "" if np.all(applied == 1) else f" with imu_axis_signs {tuple(int(x) for x in applied)}"
     add_note(meta, "imu", f"its y axis sign is not told by the IMU data ({why}): taken as {frame['what']}{given}, "
                           f"applying {tuple(int(x) for x in net)}; if the file's y points the other way on the "
-                          f"accelerometer and gyro, set imu_axis_signs {tuple(int(x) for x in net * [1, -1, 1])} in "
+                          f"accelerometer and gyro, set imu_axis_signs {tuple(int(x) for x in net * Y_NEGATED)} in "
                           "the configuration")
     meta.setdefault("imu_axis_signs", {"signs": net.tolist(), "detected": True})["decided"] = False
 
