@@ -25,8 +25,8 @@ from graphnav.core.dvl_kinematics import (WINDOW_S, centred, dvl_velocity_b, dvl
                                           without_window_fit)
 from graphnav.core.errors import DataError
 from graphnav.core.streams import add_note, count_doubted, say_doubted
-from graphnav.io.dvl_frame import (CARRIED, COURSE_MIN_SPEED_MPS, EARTH_FRAMES, KEPT_AS_DECLARED,
-                                  check_not_earth_frame, velocity_frame)
+from graphnav.io.dvl_frame import (CARRIED, EARTH_FRAMES, KEPT_AS_DECLARED, check_not_earth_frame, mean_course,
+                                  velocity_frame)
 from graphnav.io.units import (AKIT_DVL_FIXES, DECLARE_DVL_FIXES, GYRO_UNJUDGED, check_gyro_against_reference,
                                gyro_scale_found, other_unit_factors, unit_fix)
 
@@ -244,16 +244,6 @@ IMU_YAW_MIN_Q = 30.0
 #: :func:`check_velocity_against_imu` is about; pointing forward neither way (hovering, reversing, moving sideways),
 #: the data cannot say which instrument is turned.
 FORWARD_COURSE_RAD = np.deg2rad(30.0)
-#: The pings point one way when the mean of their horizontal unit directions is at least this long: 0.948-0.993 on
-#: the ten A-KIT trajectories, 0.998-0.999 simulated (400 s, lawnmower and transit); a hovering AUV 0.02-0.09 (the
-#: tests' ``_hovering_with_dvl``, seeds 1-10), whose mean direction is noise.
-MIN_COURSE_RESULTANT = 0.5
-#: ... and only when at least this share of the pings with a velocity is over :data:`COURSE_MIN_SPEED_MPS`: a vehicle
-#: holding station crosses it on a ping or an excursion of a few seconds, whose pings point one way (resultant up to
-#: 1.0) though the log does not. Over it: 0.0-0.01 of the pings of simulated vehicles holding station (400 s), 0.03-0.10
-#: of hovering ones (0.15 m/s on thrusters, 3 mm/s and 3 cm/s of DVL noise); a vehicle at 0.25 +- 0.1 m/s 0.34-0.39,
-#: at 0.45 m/s and the ten A-KIT trajectories 0.98-1.0.
-MIN_MOVING_SHARE = 0.2
 #: A DVL velocity whose mean horizontal direction (:func:`_course`) lies further than this from body +x over the
 #: whole log is warned about when no fit judged its turn (:func:`warn_dvl_sideways`): an AUV moves mostly forward
 #: (the ten A-KIT trajectories -5.0..+1.9 deg; simulated 400 s missions -0.4, -0.2, with a hull pivot 2 or 5 m
@@ -382,8 +372,8 @@ def _evidence(a: tuple[float, int], b: tuple[float, int]) -> float:
 
 def _course(dvl, config) -> float:
     """The DVL's mean horizontal direction from body +x (rad, about z; the pings over the course speed), NaN when
-    they point no one way (:data:`MIN_COURSE_RESULTANT`)."""
-    return _mean_direction(dvl_velocity_b(dvl, config)[1])
+    they point no one way (:data:`~graphnav.io.dvl_frame.MIN_COURSE_RESULTANT`)."""
+    return mean_course(dvl_velocity_b(dvl, config)[1])
 
 
 def _reference_course(reference) -> float:
@@ -392,20 +382,7 @@ def _reference_course(reference) -> float:
     if reference is None:
         return float("nan")
     v_b = np.einsum("kji,kj->ki", reference.C_b_n, reference.v_n)
-    return _mean_direction(v_b[np.isfinite(v_b).all(axis=1)])
-
-
-def _mean_direction(v: np.ndarray) -> float:
-    """The mean of the horizontal unit directions of ``v`` (N,3) m/s over :data:`COURSE_MIN_SPEED_MPS`, rad about z,
-    NaN when shorter than :data:`MIN_COURSE_RESULTANT` or when those pings are under :data:`MIN_MOVING_SHARE` of the
-    pings with a velocity."""
-    h = v[:, 0] + 1j * v[:, 1]
-    known = int(np.isfinite(h).sum())
-    h = h[np.abs(h) >= COURSE_MIN_SPEED_MPS]
-    if not h.size or h.size < MIN_MOVING_SHARE * known:
-        return float("nan")
-    mean = np.mean(h / np.abs(h))
-    return float(np.angle(mean)) if abs(mean) >= MIN_COURSE_RESULTANT else float("nan")
+    return mean_course(v_b[np.isfinite(v_b).all(axis=1)])
 
 
 def _forward(course: float) -> bool:

@@ -66,6 +66,16 @@ EARTH_FRAMES = ("ned", "enu")
 COURSE_WINDOW_S = 10.0
 #: Horizontal speed under which a velocity's direction is not used, m/s (noise turns it at hover).
 COURSE_MIN_SPEED_MPS = 0.3
+#: The pings point one way when the mean of their horizontal unit directions is at least this long: 0.948-0.993 on
+#: the ten A-KIT trajectories, 0.998-0.999 simulated (400 s, lawnmower and transit); a hovering AUV 0.02-0.09 (the
+#: tests' ``_hovering_with_dvl``, seeds 1-10), whose mean direction is noise.
+MIN_COURSE_RESULTANT = 0.5
+#: ... and only when at least this share of the pings with a velocity is over :data:`COURSE_MIN_SPEED_MPS`: a vehicle
+#: holding station crosses it on a ping or an excursion of a few seconds, whose pings point one way (resultant up to
+#: 1.0) though the log does not. Over it: 0.0-0.01 of the pings of simulated vehicles holding station (400 s), 0.03-0.10
+#: of hovering ones (0.15 m/s on thrusters, 3 mm/s and 3 cm/s of DVL noise); a vehicle at 0.25 +- 0.1 m/s 0.34-0.39,
+#: at 0.45 m/s and the ten A-KIT trajectories 0.98-1.0.
+MIN_MOVING_SHARE = 0.2
 #: RMS gyro turn rate over the windows under which the check tells nothing, rad/s.
 COURSE_MIN_TURN_RADPS = 2e-3
 #: :func:`course_turn_ratio` under which the velocity turns with the vehicle: earth-fixed (module docstring).
@@ -811,6 +821,20 @@ def _check_spread(t_dvl: np.ndarray, v: np.ndarray, v_b: np.ndarray, t_imu: np.n
     refuse_unless_declared(meta, source, fields, t_dvl, said, f"{spread}; {judged}", kin, limit)
 
 
+def mean_course(v: np.ndarray) -> float:
+    """The mean of the horizontal unit directions of ``v`` (N,3) m/s over :data:`COURSE_MIN_SPEED_MPS`, rad about z
+    from the frame's x (where the frame checks and the IMU-turn checks take a velocity to point), NaN when shorter
+    than :data:`MIN_COURSE_RESULTANT` or when those pings are under :data:`MIN_MOVING_SHARE` of the pings with a
+    velocity."""
+    h = v[:, 0] + 1j * v[:, 1]
+    known = int(np.isfinite(h).sum())
+    h = h[np.abs(h) >= COURSE_MIN_SPEED_MPS]
+    if not h.size or h.size < MIN_MOVING_SHARE * known:
+        return float("nan")
+    mean = np.mean(h / np.abs(h))
+    return float(np.angle(mean)) if abs(mean) >= MIN_COURSE_RESULTANT else float("nan")
+
+
 def check_declared_earth_course(v: np.ndarray, v_b: np.ndarray, heading: np.ndarray, source: str, fields: list[str],
                                 said: dict, meta: dict) -> None:
     """A velocity declared in an earth frame (``v``, M,3, m/s as read) whose columns as read point forward
@@ -820,8 +844,7 @@ def check_declared_earth_course(v: np.ndarray, v_b: np.ndarray, heading: np.ndar
     :data:`DECLARED_EARTH_CURRENT_MPS` or more to point so, naming
     ``csv_columns.dvl.frame`` and 'body', else warned about and counted (:data:`DECLARED_EARTH_DOUBT`); a log already
     kept as declared against the frame checks is not warned about again."""
-    from graphnav.calibration.dvl_scale import _mean_direction
-    as_read, turned = _mean_direction(v), _mean_direction(v_b)
+    as_read, turned = mean_course(v), mean_course(v_b)
     if not (abs(as_read) <= DECLARED_EARTH_FORWARD_RAD and abs(turned) > DECLARED_EARTH_OFF_WARNED):
         return                              # NaN (pointing no one way): nothing to say
     mean_heading = float(np.angle(np.nanmean(np.exp(1j * heading))))
