@@ -283,6 +283,54 @@ def test_body_columns_declared_ned_on_a_vehicle_that_barely_turns_are_refused_or
     np.testing.assert_allclose(got.dvl.v_b, v_b, atol=1e-8)
 
 
+@pytest.mark.parametrize("heading_deg", [0.0, -20.0])
+def test_body_columns_declared_enu_on_a_straight_leg_are_said_to_point_90_deg_minus_the_heading_off_the_nose(
+        sim, tmp_path, heading_deg):
+    """Body-frame columns declared ``frame: enu`` on a vehicle at 2 m/s that barely turns: read as ENU the forward
+    columns point east, so turned to body by the heading they point 90 deg minus the heading off the nose (+90, +110
+    deg), not minus the heading as NED columns do, which the refusal said (-0, +20 deg: against its own +90, +110).
+    The true ENU copy loads as before, without a warning."""
+    m, _, _ = sim
+    t_imu, f_b, omega_b, t, v_b, v_n, euler = _slow_in_current(3, 2.0, 0.0, ned=True, with_attitude=True,
+                                                               turn_deg_s=0.05, heading_deg=heading_deg)
+    m_leg = dataclasses.replace(m, imu=dataclasses.replace(m.imu, t=t_imu, f_b=f_b, omega_b=omega_b))
+    cols = {"roll": euler[:, 0], "pitch": euler[:, 1], "yaw": euler[:, 2]}
+    entry = {"frame": "enu", "euler": list(cols), "angle_unit": "deg"}
+    off = 90.0 - heading_deg
+    with pytest.raises(DataError, match=rf"turned to body it points {re.escape(f'{off:+.0f}')} deg about z from body x "
+                                        r"on average, .* point off the nose by about 90 deg minus the heading; a true "
+                                        r"ENU velocity") as err:
+        _load(_folder(tmp_path, (m_leg, t, None), v_b, entry, cols))
+    heading = float(re.search(r"heading column \(mean ([+-]\d+) deg\)", str(err.value)).group(1))
+    assert heading == pytest.approx(heading_deg, abs=1.0)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        got = _load(_folder(tmp_path, (m_leg, t, None), v_n[:, [1, 0, 2]] * [1, 1, -1], entry, cols))
+    assert not [str(w.message) for w in caught if "dvl.csv" in str(w.message)]
+    np.testing.assert_allclose(got.dvl.v_b, v_b, atol=1e-8)
+
+
+def test_an_imu_turn_refused_after_the_straight_leg_warning_says_the_velocity_pointed_off_forward(sim, tmp_path):
+    """Body-frame columns declared ``frame: ned`` on a vehicle at 2 m/s that barely turns, heading -40 deg: kept with
+    the straight-leg warning (they point +40 deg off forward turned to body). With the IMU's columns turned 90 deg
+    about z the IMU turn is refused, and that refusal said the velocity was kept though 'it turns with the vehicle',
+    which no check had found: it says what the warning found, that it points off forward."""
+    m, _, _ = sim
+    t_imu, f_b, omega_b, t, v_b, _, euler = _slow_in_current(3, 2.0, 0.0, ned=True, with_attitude=True,
+                                                             turn_deg_s=0.05, heading_deg=-40.0)
+    quarter = np.array([[0.0, 1.0, 0.0], [-1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
+    imu = dataclasses.replace(m.imu, t=t_imu, f_b=f_b @ quarter.T, omega_b=omega_b @ quarter.T)
+    cols = {"roll": euler[:, 0], "pitch": euler[:, 1], "yaw": euler[:, 2]}
+    entry = {"frame": "ned", "euler": list(cols), "angle_unit": "deg"}
+    with pytest.warns(RuntimeWarning, match="points off forward"), \
+            pytest.raises(DataError, match=r"turned 90 deg about z") as err:
+        _load(_folder(tmp_path, (dataclasses.replace(m, imu=imu), t, None), v_b, entry, cols))
+    said = str(err.value)
+    assert ("kept in its declared ned frame though, turned to body by its attitude columns, it points off forward "
+            "while its columns as read point forward (the warning on the DVL stream)") in said
+    assert "it turns with the vehicle" not in said
+
+
 def test_a_slow_vehicle_whose_velocity_noise_turns_it_more_than_it_turns_is_kept_as_body(sim, tmp_path):
     """A vehicle at 0.28 m/s, no current, 0.06 m/s velocity noise: the noise turns the velocity's direction as much as
     the vehicle turns (signal 1.28x), so the turn ratio (0.89) and the kinematics (1.04x) are near 1 whatever the

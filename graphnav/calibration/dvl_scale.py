@@ -25,8 +25,8 @@ from graphnav.core.dvl_kinematics import (WINDOW_S, centred, dvl_velocity_b, dvl
                                           without_window_fit)
 from graphnav.core.errors import DataError
 from graphnav.core.streams import add_note, count_doubted, say_doubted
-from graphnav.io.dvl_frame import (CARRIED, EARTH_FRAMES, KEPT_AS_DECLARED, check_not_earth_frame, mean_course,
-                                  velocity_frame)
+from graphnav.io.dvl_frame import (CARRIED, EARTH_FRAMES, KEPT_AS_DECLARED, KEPT_POINTING_OFF, check_not_earth_frame,
+                                  mean_course, velocity_frame)
 from graphnav.io.units import (AKIT_DVL_FIXES, DECLARE_DVL_FIXES, GYRO_UNJUDGED, check_gyro_against_reference,
                                gyro_scale_found, other_unit_factors, unit_fix)
 
@@ -504,8 +504,10 @@ def _unless_declared_earth(meta: dict, exc: DataError, or_y: str = "") -> DataEr
     if not kept:
         return exc
     if kept in EARTH_FRAMES:
+        found = ("points off forward while its columns as read point forward" if meta.get(KEPT_POINTING_OFF) else
+                 "turns with the vehicle")
         return DataError(f"{exc.message}. But the DVL velocity was kept in its declared {kept} frame though, turned "
-                         f"to body by its attitude columns, it turns with the vehicle (the warning on the DVL stream): "
+                         f"to body by its attitude columns, it {found} (the warning on the DVL stream): "
                          f"a vehicle-fixed velocity declared earth-fixed, turned by the vehicle's heading, fits the "
                          f"IMU turned; if the columns are in the vehicle's frame, declare csv_columns.dvl.frame 'body' "
                          f"as that warning says, and the IMU needs no turn", exc.source, field=exc.field)

@@ -156,6 +156,9 @@ DECLARED_EARTH_CURRENT_MPS = 1.5
 #: The ``meta`` key set when a declared frame was kept against the frame checks (the frame's name): said once, not
 #: again by the prepare step's check.
 KEPT_AS_DECLARED = "dvl_frame_kept_as_declared"
+#: The ``meta`` key set (True) when an earth frame was kept though, turned to body, it points off forward while its
+#: columns as read point forward (:func:`check_declared_earth_course`), not because it turns with the vehicle.
+KEPT_POINTING_OFF = "dvl_frame_kept_pointing_off_forward"
 #: Windows :func:`_own_offsets`' coarse scan scores at each offset (the clock search's 60 cost 1.6x as much on long
 #: logs). Measured (docs/decisions/dvl-frame.md): logs up to 600 s have fewer; 5400 s slow vehicles a day off and their
 #: NED copies get the same decisions, the body logs' offsets and the copies' earth offsets within 0.5 s of those at 60
@@ -835,6 +838,11 @@ def mean_course(v: np.ndarray) -> float:
     return float(np.angle(mean)) if abs(mean) >= MIN_COURSE_RESULTANT else float("nan")
 
 
+#: How far off the nose body-frame columns declared in an earth frame point once turned to body by the heading: forward
+#: columns read as NED point north, read as ENU east (90 deg clockwise of north).
+_COLUMNS_OFF_NOSE = {"ned": "minus the heading", "enu": "90 deg minus the heading"}
+
+
 def check_declared_earth_course(v: np.ndarray, v_b: np.ndarray, heading: np.ndarray, source: str, fields: list[str],
                                 said: dict, meta: dict) -> None:
     """A velocity declared in an earth frame (``v``, M,3, m/s as read) whose columns as read point forward
@@ -852,10 +860,11 @@ def check_declared_earth_course(v: np.ndarray, v_b: np.ndarray, heading: np.ndar
     current = speed * (np.sin(abs(turned)) if abs(turned) < np.pi / 2 else 1.0)
     why = (f"turned to body it points {np.degrees(turned):+.0f} deg about z from body x on average, while its columns "
            f"as read point {np.degrees(as_read):+.0f} deg (an AUV moves mostly forward): body-frame columns turned by "
-           f"the heading column (mean {np.degrees(mean_heading):+.0f} deg) point off the nose by about minus the "
-           f"heading; a true {said['frame'].upper()} velocity points so only for a vehicle crabbing "
-           f"{abs(np.degrees(turned)):.0f} deg on a course within {np.degrees(DECLARED_EARTH_FORWARD_RAD):g} deg of "
-           f"its columns' x, in a current of at least {current:.2f} m/s (at {speed:.2f} m/s over the ground)")
+           f"the heading column (mean {np.degrees(mean_heading):+.0f} deg) point off the nose by about "
+           f"{_COLUMNS_OFF_NOSE[said['frame']]}; a true {said['frame'].upper()} velocity points so only for a vehicle "
+           f"crabbing {abs(np.degrees(turned)):.0f} deg on a course within "
+           f"{np.degrees(DECLARED_EARTH_FORWARD_RAD):g} deg of its columns' x, in a current of at least "
+           f"{current:.2f} m/s (at {speed:.2f} m/s over the ground)")
     if current >= DECLARED_EARTH_CURRENT_MPS:
         raise DataError(f"DVL velocity {said['said']} points sideways or backward: {why}: they are in the vehicle's "
                         f"frame, not the {said['frame']} frame: {said['declare']}", source, field=", ".join(fields))
@@ -866,6 +875,7 @@ def check_declared_earth_course(v: np.ndarray, v_b: np.ndarray, heading: np.ndar
                 f"{why}: kept in the {said['frame']} frame as declared; {_otherwise(said)}", DECLARED_EARTH_DOUBT,
                 len(v), stacklevel=3)
     meta[KEPT_AS_DECLARED] = said["frame"]
+    meta[KEPT_POINTING_OFF] = True
 
 
 def columns_to_body(t_dvl: np.ndarray, v: np.ndarray, euler: np.ndarray | None, spec: dict, C_d_b: np.ndarray,
