@@ -493,11 +493,12 @@ def check_imu_y(imu, dvl, config, meta: dict, frame: dict, model, yaw: int, offs
 
 
 def _unless_declared_earth(meta: dict, exc: DataError, or_y: str = "") -> DataError:
-    """``exc``, a turn between the IMU and the DVL, saying first that the DVL velocity was kept in its declared vehicle
-    frame against the frame checks (:data:`~graphnav.io.dvl_frame.KEPT_AS_DECLARED`): an earth-fixed velocity declared
-    body fits the IMU turned by the vehicle's heading, and its frame, not the IMU, is then what to fix; so does a
-    vehicle-fixed velocity declared in an earth frame, which its attitude columns turn by the heading. ``or_y``: the
-    sentence naming the IMU's y negated, which fits about as well (:func:`check_imu_y`), added."""
+    """``exc``, a turn between the IMU and the DVL (or the DVL's y and z negated), saying first that the DVL velocity
+    was kept in its declared frame against the frame checks (:data:`~graphnav.io.dvl_frame.KEPT_AS_DECLARED`): an
+    earth-fixed velocity declared body fits the IMU turned by the vehicle's heading, and its frame, not the IMU, is then
+    what to fix; so does a vehicle-fixed velocity declared in an earth frame, which its attitude columns turn by the
+    heading. ``or_y``: the sentence naming the IMU's y negated, which fits about as well (:func:`check_imu_y`),
+    added."""
     if or_y:
         exc = DataError(exc.message + or_y, exc.source, field=exc.field)
     kept = meta.get(KEPT_AS_DECLARED)
@@ -509,8 +510,9 @@ def _unless_declared_earth(meta: dict, exc: DataError, or_y: str = "") -> DataEr
         return DataError(f"{exc.message}. But the DVL velocity was kept in its declared {kept} frame though, turned "
                          f"to body by its attitude columns, it {found} (the warning on the DVL stream): "
                          f"a vehicle-fixed velocity declared earth-fixed, turned by the vehicle's heading, fits the "
-                         f"IMU turned; if the columns are in the vehicle's frame, declare csv_columns.dvl.frame 'body' "
-                         f"as that warning says, and the IMU needs no turn", exc.source, field=exc.field)
+                         f"IMU only with axes turned or negated; if the columns are in the vehicle's frame, declare "
+                         f"csv_columns.dvl.frame 'body' as that warning says, and no axes need changing", exc.source,
+                         field=exc.field)
     return DataError(f"{exc.message}. But the DVL velocity was kept in its declared vehicle frame though the frame "
                      f"checks found it earth-fixed (the warning on the DVL stream): an earth-fixed velocity declared "
                      f"in the vehicle's frame fits the IMU turned by the vehicle's heading; if it is earth-fixed, "
@@ -855,9 +857,10 @@ def check_velocity_against_imu(imu, dvl, config, meta: dict, moved: bool = False
             warn_small_turn(dvl, meta, field, fixes, yaw, sigma, r2)
     ratio, explained = flu_fit_ratio(model, imu, dvl, config)
     if explained >= MIN_FLU_EXPLAINED and ratio >= FLU_SSE_RATIO:
-        raise DataError(f"the DVL velocity fits the IMU's accelerations {ratio:.3g}x better with its y and z "
-                        f"negated (then explaining {explained:.2f} of its changes): FLU axes (ROS base_link) read "
-                        f"as FRD? {fixes['flu']}", dvl.source, field=field)
+        raise _unless_declared_earth(meta, DataError(
+            f"the DVL velocity fits the IMU's accelerations {ratio:.3g}x better with its y and z negated (then "
+            f"explaining {explained:.2f} of its changes): FLU axes (ROS base_link) read as FRD? {fixes['flu']}",
+            dvl.source, field=field))
 
 
 #: A declared DVL velocity unit whose clock model leaves this many times as much of the velocity's changes unexplained

@@ -144,15 +144,9 @@ DECLARED_EARTH_REFUSED = 1.3
 DECLARED_EARTH_FORWARD_RAD = np.deg2rad(10.0)
 #: ... warned about and counted (:data:`DECLARED_EARTH_DOUBT`) when it points further off forward than this once
 #: turned to body (an AUV moves mostly forward, :data:`~graphnav.calibration.dvl_scale.FORWARD_COURSE_RAD`; a true
-#: NED copy crabs this far only slower than the current it moves in, or in a strong one), refused where a true earth
-#: frame would need a current of :data:`DECLARED_EARTH_CURRENT_MPS` or more.
+#: NED copy crabs this far only slower than the current it moves in, in a strong one, or moving sideways or backward
+#: under its own thrust, which a straight leg cannot tell from body columns: warned, never refused).
 DECLARED_EARTH_OFF_WARNED = np.deg2rad(30.0)
-#: The current (m/s) a true earth-frame velocity pointing so far off forward would need (its median horizontal speed
-#: times the sine of the angle, all of it beyond 90 deg: the smallest current that moves a vehicle going forward so),
-#: from which :func:`check_declared_earth_course` refuses: currents where AUVs work rarely reach it. Measured
-#: (docs/decisions/dvl-frame.md): A-KIT body copies at 2.05 m/s refused from 47 deg off forward, 30-47 deg warned;
-#: simulated slow vehicles in currents up to 1.0 m/s need at most their current, so none is refused.
-DECLARED_EARTH_CURRENT_MPS = 1.5
 #: The ``meta`` key set when a declared frame was kept against the frame checks (the frame's name): said once, not
 #: again by the prepare step's check.
 KEPT_AS_DECLARED = "dvl_frame_kept_as_declared"
@@ -848,10 +842,10 @@ def check_declared_earth_course(v: np.ndarray, v_b: np.ndarray, heading: np.ndar
     """A velocity declared in an earth frame (``v``, M,3, m/s as read) whose columns as read point forward
     (:data:`DECLARED_EARTH_FORWARD_RAD`) while turned to body (``v_b``, M,3, m/s) it points off forward
     (:data:`DECLARED_EARTH_OFF_WARNED`): body columns turned by the ``heading`` column (M, rad), which a vehicle that
-    barely turns gives the turn checks nothing to judge by. Refused where a true earth frame would need a current of
-    :data:`DECLARED_EARTH_CURRENT_MPS` or more to point so, naming
-    ``csv_columns.dvl.frame`` and 'body', else warned about and counted (:data:`DECLARED_EARTH_DOUBT`); a log already
-    kept as declared against the frame checks is not warned about again."""
+    barely turns gives the turn checks nothing to judge by: warned about and counted (:data:`DECLARED_EARTH_DOUBT`),
+    naming ``csv_columns.dvl.frame`` and 'body' and the current a true earth frame would need, never refused (a true
+    earth-frame velocity of a vehicle in a strong cross-current, or an ROV moving sideways or backward, points so on
+    a straight leg too); a log already kept as declared against the frame checks is not warned about again."""
     as_read, turned = mean_course(v), mean_course(v_b)
     if not (abs(as_read) <= DECLARED_EARTH_FORWARD_RAD and abs(turned) > DECLARED_EARTH_OFF_WARNED):
         return                              # NaN (pointing no one way): nothing to say
@@ -864,10 +858,8 @@ def check_declared_earth_course(v: np.ndarray, v_b: np.ndarray, heading: np.ndar
            f"{_COLUMNS_OFF_NOSE[said['frame']]}; a true {said['frame'].upper()} velocity points so only for a vehicle "
            f"crabbing {abs(np.degrees(turned)):.0f} deg on a course within "
            f"{np.degrees(DECLARED_EARTH_FORWARD_RAD):g} deg of its columns' x, in a current of at least "
-           f"{current:.2f} m/s (at {speed:.2f} m/s over the ground)")
-    if current >= DECLARED_EARTH_CURRENT_MPS:
-        raise DataError(f"DVL velocity {said['said']} points sideways or backward: {why}: they are in the vehicle's "
-                        f"frame, not the {said['frame']} frame: {said['declare']}", source, field=", ".join(fields))
+           f"{current:.2f} m/s (at {speed:.2f} m/s over the ground), or moving sideways or backward under its own "
+           "thrust")
     if meta.get(KEPT_AS_DECLARED):
         return
     from graphnav.core.streams import say_doubted
