@@ -923,10 +923,11 @@ def test_a_dvl_turned_90_deg_on_a_vehicle_holding_its_speed_is_still_warned_abou
 
 
 def _akit_crop_without_gt(src, dst, C, seconds=200.0, start=0.0, gt=False, imu_signs=(1, 1, 1), dvl_shift=0.0,
-                          dvl_rows_removed=0.0):
+                          dvl_rows_removed=0.0, dvl_outage=None):
     """The IMU and DVL files of the A-KIT folder ``src`` cut to ``seconds`` from ``start`` (no GT file, as a vehicle
     has them, unless ``gt``) in ``dst``, the DVL velocity columns multiplied by ``C`` (3,3) and its stamps moved
-    ``dvl_shift`` s, that share of its rows removed at random (seeded), the IMU's axes by ``imu_signs``."""
+    ``dvl_shift`` s, that share of its rows removed at random (seeded), then ``dvl_outage`` ``(first, rows)``: that
+    many consecutive rows from the ``first`` of the cut removed; the IMU's axes by ``imu_signs``."""
     from graphnav.io.loaders import AKIT_COLUMNS, akit_files, read_csv
     dst = dst / src.name
     dst.mkdir(parents=True)
@@ -940,6 +941,8 @@ def _akit_crop_without_gt(src, dst, C, seconds=200.0, start=0.0, gt=False, imu_s
             rows[:, 0] += dvl_shift
             removed = np.random.default_rng(1).choice(len(rows), int(round(dvl_rows_removed * len(rows))), False)
             rows = np.delete(rows, removed, axis=0)
+            if dvl_outage is not None:
+                rows = np.delete(rows, np.arange(dvl_outage[0], sum(dvl_outage)), axis=0)
         if kind == "IMU":
             rows[:, 1:] *= np.tile(imu_signs, 2)
         np.savetxt(dst / path.name, rows, delimiter=",", fmt="%.12g", comments="", header=",".join(AKIT_COLUMNS[kind]))
@@ -1056,6 +1059,30 @@ def test_a_short_piece_turned_beyond_10_deg_is_refused_by_the_best_fit_and_a_cle
         warnings.simplefilter("always")
         load_mission(_akit_crop_without_gt(akit_dir / "Trajectory3", tmp_path / "clean", np.eye(3), 60.0, 120.0))
     assert not [str(w.message) for w in caught if "DVL velocity" in str(w.message)]
+
+
+@pytest.mark.parametrize("name, start", [("Trajectory10", 0.0), ("Trajectory2", 0.0), ("Trajectory1", 240.0),
+                                         ("Trajectory6", 240.0)])
+def test_a_short_piece_with_a_dvl_outage_is_not_refused_as_turned(akit_dir, tmp_path, name, start):
+    """60 s A-KIT pieces without GT, 10 DVL pings dropped after the 23rd (an 11 s step): two windows were left, one
+    across the outage, whose ``int omega x v`` held the velocity through the gap, and the fit read turns of -24, -22,
+    +11 and -12 deg: refused as a turned DVL though clean. The turn is fitted over windows no outage crosses: too few
+    here, so it is not judged, and the pieces load with nothing said of a turn."""
+    folder = _akit_crop_without_gt(akit_dir / name, tmp_path, np.eye(3), 60.0, start, dvl_outage=(23, 10))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        m = load_mission(folder)
+    assert np.max(np.diff(m.dvl.t)) > 10.0
+    assert not [str(w.message) for w in caught if "turned" in str(w.message) and "DVL" in str(w.message)]
+
+
+def test_a_turned_dvl_is_still_refused_across_an_outage_on_a_longer_piece(akit_dir, tmp_path):
+    """Trajectory1's 120 s from 180 s without GT, its DVL turned 20 deg and 10 pings dropped: the windows the outage
+    does not cross still judge the turn, and the piece is refused as turned."""
+    folder = _akit_crop_without_gt(akit_dir / "Trajectory1", tmp_path, _turned(20.0), 120.0, 180.0,
+                                   dvl_outage=(43, 10))
+    with pytest.raises(DataError, match=r"the DVL velocity is turned \+(19|2\d)\.\d deg about z from the IMU's axes"):
+        load_mission(folder)
 
 
 def test_an_akit_dvl_the_gt_refuses_is_said_turned_when_the_turn_explains_it_naming_its_columns(akit_dir, tmp_path):

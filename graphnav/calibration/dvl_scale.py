@@ -64,6 +64,13 @@ MAX_YAW_RAD = np.deg2rad(10.0)
 #: floor keeps a residual the sigma does not see (a hull's sideslip, a lever arm) from being warned about.
 MIN_YAW_RAD = np.deg2rad(2.0)
 YAW_SIGMAS = 3.0
+#: The DVL's turn about z (:data:`MAX_YAW_RAD`, :data:`MIN_YAW_RAD`) is fitted over the windows with no step between
+#: pings beyond this (s): across an outage the model's ``int omega x v`` holds the velocity at the gap's ends for the
+#: whole gap, which in a turn leaves a sideways residual the fit reads as a turn. 60 s A-KIT pieces without GT with one
+#: 10-ping outage (an 11 s step; two windows left, one across it) fitted turns of -24/-22/+11/-12 deg and were refused
+#: (Trajectory10 and 2 from 0 s, 1 and 6 from 240 s; the same pieces whole: -9/-15/-0.3/+0.3 deg, under 3 windows'
+#: sigmas or 10 deg). A dropped ping or two (steps of 2-3 s) stay in.
+MAX_TURN_GAP_S = 5.0
 #: Why DVL pings read despite a velocity turned a few degrees from the IMU's axes are counted.
 YAW_DOUBT = "DVL velocity turned a few degrees about z from the IMU's axes"
 #: Why DVL pings read despite a velocity turned about z beyond :data:`MAX_YAW_RAD` (its own fit) or by a quarter turn
@@ -159,13 +166,14 @@ def judging_model(imu, dvl, config, **kwargs):
     return model
 
 
-def speed_scale(model, offset: float = 0.0) -> tuple[float, float, float]:
+def speed_scale(model, offset: float = 0.0, gapless: bool = False) -> tuple[float, float, float]:
     """``(scale, r2, yaw)``: the DVL's horizontal velocity over the one the IMU's integrals say (1 for a right unit),
     the share of the variance the fit explains, and the angle the DVL's horizontal axes are turned by (rad, about
     z: a mounting yaw turns the velocity, it does not scale it), over the model's windows inside the IMU span at
-    ``offset`` s (NaN without two). The horizontal parts are complex numbers ``x + iy``: the DVL side regressed
-    on the IMU side gives ``scale * exp(i yaw)``."""
-    sides = _horizontal_sides(model, offset)
+    ``offset`` s (NaN without two; ``gapless``: only those with no step beyond :data:`MAX_TURN_GAP_S`). The
+    horizontal parts are complex numbers ``x + iy``: the DVL side regressed on the IMU side gives
+    ``scale * exp(i yaw)``."""
+    sides = _horizontal_sides(model, offset, gapless)
     if sides is None:
         return float("nan"), float("nan"), float("nan")
     a, b = sides
@@ -173,17 +181,29 @@ def speed_scale(model, offset: float = 0.0) -> tuple[float, float, float]:
     return abs(ab) / max(bb, 1e-300), abs(ab) ** 2 / max(aa * bb, 1e-300), float(np.angle(ab))
 
 
-def _horizontal_sides(model, offset: float):
+def _horizontal_sides(model, offset: float, gapless: bool = False):
     """``(a, b)``, complex (win, pings): the DVL side and the IMU side of the clock model's windows inside the IMU
-    span at ``offset`` s, each window's ``v0`` and ``g0`` taken out, horizontally as ``x + iy`` (m/s); None without
-    two windows."""
+    span at ``offset`` s (``gapless``: only those with no step beyond :data:`MAX_TURN_GAP_S`), each window's ``v0``
+    and ``g0`` taken out, horizontally as ``x + iy`` (m/s); None without two windows."""
     inside, terms = model.terms(offset)
     if terms is None or inside.sum() < 2:
         return None
     v, C, F, lever, A, fitted = terms
     a = without_window_fit(v + C, A, fitted).reshape(len(v), -1, 3)
     b = without_window_fit(F + lever, A, fitted).reshape(len(v), -1, 3)
+    if gapless:
+        keep = ~spans_outage(model.t[inside], model.real[inside])
+        if keep.sum() < 2:
+            return None
+        a, b = a[keep], b[keep]
     return a[..., 0] + 1j * a[..., 1], b[..., 0] + 1j * b[..., 1]
+
+
+def spans_outage(t: np.ndarray, real: np.ndarray) -> np.ndarray:
+    """(win,) bool: which windows of pings stamped ``t`` (win, n) s (``real`` False at a window's padding) have a step
+    between pings beyond :data:`MAX_TURN_GAP_S`."""
+    steps = np.diff(t, axis=1)
+    return np.any((steps > MAX_TURN_GAP_S) & real[:, 1:], axis=1)
 
 
 def yaw_sigma(model, offset: float = 0.0) -> tuple[float, float]:
@@ -196,8 +216,9 @@ def yaw_sigma(model, offset: float = 0.0) -> tuple[float, float]:
 
 
 def _turn_at(model, offset: float = 0.0) -> tuple[float, float, float]:
-    """:func:`turn_fit`'s ``(yaw, sigma, r2)`` of the clock model's horizontal sides at ``offset`` s."""
-    sides = _horizontal_sides(model, offset)
+    """:func:`turn_fit`'s ``(yaw, sigma, r2)`` of the clock model's horizontal sides at ``offset`` s, over its windows
+    with no step beyond :data:`MAX_TURN_GAP_S`."""
+    sides = _horizontal_sides(model, offset, gapless=True)
     if sides is None:
         return float("nan"), float("nan"), float("nan")
     a, b = sides
@@ -795,7 +816,8 @@ def check_velocity_against_imu(imu, dvl, config, meta: dict, moved: bool = False
     ``field``: the DVL columns named (default the loader's ``meta["stream_fields"]["dvl"]``); ``fixes``: what the
     messages advise (:data:`DECLARE_DVL_FIXES`, :data:`AKIT_DVL_FIXES`); ``reference``: the mission's reference,
     which says where the vehicle moves when the fits cannot judge the DVL's turn (:func:`warn_dvl_sideways`). A turn
-    beyond 10 deg is read at the best scale's offset (:data:`MAX_YAW_RAD`); a few degrees beyond its sigma at the DVL's
+    beyond 10 deg is read at the best scale's offset (:data:`MAX_YAW_RAD`), each turn over the windows no DVL
+    outage crosses (:data:`MAX_TURN_GAP_S`); a few degrees beyond its sigma at the DVL's
     stamps as they stand (a clock found, given or the vehicle's) is warned about and counted (:data:`MIN_YAW_RAD`,
     :func:`warn_small_turn`). A velocity the body kinematics kept as body in a current (``meta[CARRIED]``,
     :func:`graphnav.io.dvl_frame.check_not_earth_frame`) is judged by no mean direction."""
@@ -816,7 +838,9 @@ def check_velocity_against_imu(imu, dvl, config, meta: dict, moved: bool = False
                               velocity_frame(config, meta), imu.f_b, meta=meta, own_offsets=True)
     fits = [speed_scale(model, o) for o in SCALE_OFFSETS_S]
     best = int(np.argmax([np.nan_to_num(f[1], nan=-1.0) for f in fits]))
-    scale, r2, yaw = fits[best]
+    scale, r2, _ = fits[best]
+    # the turn over the windows no outage crosses (MAX_TURN_GAP_S): the scale is a ratio an outage barely moves
+    _, turn_r2, yaw = speed_scale(model, SCALE_OFFSETS_S[best], gapless=True)
     if r2 >= MIN_SCALE_R2 and not 1 / MAX_SCALE_ERROR < scale < MAX_SCALE_ERROR:
         declared = meta.get("prepare", {}).get("dvl_unit")      # the key a declared unit is set under, to name
         fix = f"check {declared['key']} (declared {declared['unit']!r})" if declared else fixes["unit"]
@@ -828,7 +852,7 @@ def check_velocity_against_imu(imu, dvl, config, meta: dict, moved: bool = False
     # direction says nothing of the vehicle's forward, and it was judged on the IMU clock as it stands (offset 0)
     carried = bool(meta.get(CARRIED))
     # a velocity its own fit finds turned, pointing forward turned back, is the DVL's (45 deg is no IMU quarter turn)
-    turned = r2 >= MIN_SCALE_R2 and abs(yaw) > MAX_YAW_RAD
+    turned = turn_r2 >= MIN_SCALE_R2 and abs(yaw) > MAX_YAW_RAD
     dvl_yawed = turned and not carried and _forward(np.angle(np.exp(1j * (_course(dvl, config) - yaw))))
     if imu_frame is not None and not dvl_yawed:     # before the DVL's yaw: a turned IMU turns the velocity too
         # the best scale's offset where its fit explains enough to fix the DVL's clock; where not (a vehicle holding
@@ -837,8 +861,8 @@ def check_velocity_against_imu(imu, dvl, config, meta: dict, moved: bool = False
         dvl_turn = check_imu_yaw(imu, dvl, config, meta, imu_frame, model, offsets, carried)
     if turned:
         _say_dvl_turned(dvl, meta, field, fixes, f"the DVL velocity is turned {np.degrees(yaw):+.1f} deg about z from "
-                        f"the IMU's axes (the fit explains {r2:.2f} of its changes): columns in the instrument frame "
-                        f"of a yawed DVL read as body? {fixes['yaw']}")
+                        f"the IMU's axes (the fit explains {turn_r2:.2f} of its changes): columns in the instrument "
+                        f"frame of a yawed DVL read as body? {fixes['yaw']}")
     elif dvl_turn:                      # the DVL's own fit explains too little: the IMU-turn fit may still see it
         warn_dvl_turned(dvl, meta, field, dvl_turn, fixes)
     elif carried:
