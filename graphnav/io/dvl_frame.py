@@ -893,8 +893,8 @@ def columns_to_body(t_dvl: np.ndarray, v: np.ndarray, euler: np.ndarray | None, 
     Raises:
         ConfigError: an earth frame without attitude columns or their unit.
         DataError: a vehicle-frame velocity that turns with the vehicle; an earth-frame one that, turned to body,
-            clearly does (:func:`refuse_unless_declared`), or points sideways or backward while its columns as read
-            point forward (:func:`check_declared_earth_course`).
+            clearly does (:func:`refuse_unless_declared`). One that points off forward while its columns as read point
+            forward is warned about and counted, not refused (:func:`check_declared_earth_course`).
     """
     from graphnav.core.streams import add_note
     from graphnav.core.timeseries import on_the_imu_clock
