@@ -748,10 +748,17 @@ def refuse_unless_declared(meta: dict | None, source: str, fields: list[str], t_
         keep = f"; if it is in the vehicle's frame, {said['keep']}" if said.get("keep") else ""
         raise DataError(f"DVL velocity {said['said']} turns with the vehicle: {why}: {said['declare']}{keep}",
                         source, field=", ".join(fields))
+    _keep_as_declared(meta, source, fields, len(t_dvl), said, f"turns with the vehicle: {why}")
+
+
+def _keep_as_declared(meta: dict, source: str, fields: list[str], n: int, said: dict, found: str) -> None:
+    """Warn about and count the ``n`` pings of a velocity kept in its declared frame (``said``) against a check that
+    ``found`` something else (:data:`DECLARED_EARTH_DOUBT` or :data:`DECLARED_FRAME_DOUBT`), and mark it kept
+    (:data:`KEPT_AS_DECLARED`): said once."""
     from graphnav.core.streams import say_doubted
-    say_doubted(meta, "dvl", source, f"field '{', '.join(fields)}': DVL velocity {said['said']} turns with the "
-                f"vehicle: {why}: kept in the {said['frame']} frame as declared; {_otherwise(said)}",
-                DECLARED_EARTH_DOUBT if earth else DECLARED_FRAME_DOUBT, len(t_dvl), stacklevel=3)
+    say_doubted(meta, "dvl", source, f"field '{', '.join(fields)}': DVL velocity {said['said']} {found}: kept in the "
+                f"{said['frame']} frame as declared; {_otherwise(said)}",
+                DECLARED_EARTH_DOUBT if said["frame"] in EARTH_FRAMES else DECLARED_FRAME_DOUBT, n, stacklevel=4)
     meta[KEPT_AS_DECLARED] = said["frame"]
 
 
@@ -849,6 +856,8 @@ def check_declared_earth_course(v: np.ndarray, v_b: np.ndarray, heading: np.ndar
     as_read, turned = mean_course(v), mean_course(v_b)
     if not (abs(as_read) <= DECLARED_EARTH_FORWARD_RAD and abs(turned) > DECLARED_EARTH_OFF_WARNED):
         return                              # NaN (pointing no one way): nothing to say
+    if meta.get(KEPT_AS_DECLARED):
+        return
     mean_heading = float(np.angle(np.nanmean(np.exp(1j * heading))))
     speed = float(np.nanmedian(np.hypot(v_b[:, 0], v_b[:, 1])))
     current = speed * (np.sin(abs(turned)) if abs(turned) < np.pi / 2 else 1.0)
@@ -860,13 +869,7 @@ def check_declared_earth_course(v: np.ndarray, v_b: np.ndarray, heading: np.ndar
            f"{np.degrees(DECLARED_EARTH_FORWARD_RAD):g} deg of its columns' x, in a current of at least "
            f"{current:.2f} m/s (at {speed:.2f} m/s over the ground), or moving sideways or backward under its own "
            "thrust")
-    if meta.get(KEPT_AS_DECLARED):
-        return
-    from graphnav.core.streams import say_doubted
-    say_doubted(meta, "dvl", source, f"field '{', '.join(fields)}': DVL velocity {said['said']} points off forward: "
-                f"{why}: kept in the {said['frame']} frame as declared; {_otherwise(said)}", DECLARED_EARTH_DOUBT,
-                len(v), stacklevel=3)
-    meta[KEPT_AS_DECLARED] = said["frame"]
+    _keep_as_declared(meta, source, fields, len(v), said, f"points off forward: {why}")
     meta[KEPT_POINTING_OFF] = True
 
 
