@@ -1723,6 +1723,14 @@ def test_a_level_rov_reversing_in_turns_is_not_given_its_imu_y_flipped_by_the_ti
     np.testing.assert_allclose(got.dvl.v_b, v_b, atol=1e-9)
 
 
+def _with_imu_y_negated(m, t_imu, f_b, omega_b):
+    """The mission ``m`` with the IMU ``t_imu`` (s), ``f_b`` (m/s^2), ``omega_b`` (rad/s), its y negated on the
+    accelerometer and the gyro (a left-handed axis set)."""
+    y_negated = np.array([1.0, -1.0, 1.0])
+    return dataclasses.replace(m, imu=dataclasses.replace(m.imu, t=t_imu, f_b=f_b * y_negated,
+                                                          omega_b=omega_b * y_negated))
+
+
 def test_a_gently_rolling_vehicle_with_its_imu_y_negated_still_has_it_found_and_turned(sim, tmp_path):
     """A vehicle rolling and pitching 0.1 and 0.2 deg (median tilt rate 7e-4 rad/s, under GYRO_TILT_MIN_RADPS) whose
     IMU y (accelerometer and gyro) is negated: its tilt kinematics fit the y flipped 9x better. Not judged at all
@@ -1730,9 +1738,7 @@ def test_a_gently_rolling_vehicle_with_its_imu_y_negated_still_has_it_found_and_
     there at a larger margin (a level vehicle's wrong fit: 1.2-1.3x), it is found and turned, with a warning."""
     m, _, _ = sim
     t_imu, f_b, omega_b, t, v_b = _slow_in_current(1, 0.4, 0.0, tilt_deg=(0.1, 0.2))
-    y_negated = np.array([1.0, -1.0, 1.0])
-    rolling = dataclasses.replace(m, imu=dataclasses.replace(m.imu, t=t_imu, f_b=f_b * y_negated,
-                                                             omega_b=omega_b * y_negated))
+    rolling = _with_imu_y_negated(m, t_imu, f_b, omega_b)
     with pytest.warns(RuntimeWarning, match=r"they need axis signs \(1, -1, 1\)"):
         got = _load(_folder(tmp_path, (rolling, t, None), v_b))
     np.testing.assert_allclose(got.imu.omega_b, omega_b, atol=1e-9)
@@ -1761,9 +1767,7 @@ def test_a_level_vehicle_with_its_imu_y_negated_is_refused_naming_the_y_axis_not
     the turn): refused naming the y axis and the imu_axis_signs that load it, which then do."""
     m, _, _ = sim
     t_imu, f_b, omega_b, t, v_b = _slow_in_current(1, 0.4, 0.0, tilt_deg=(0.0, 0.0), reverse_at=reverse_at)
-    y_negated = np.array([1.0, -1.0, 1.0])
-    level = dataclasses.replace(m, imu=dataclasses.replace(m.imu, t=t_imu, f_b=f_b * y_negated,
-                                                           omega_b=omega_b * y_negated))
+    level = _with_imu_y_negated(m, t_imu, f_b, omega_b)
     folder = _folder(tmp_path, (level, t, None), v_b)
     with pytest.raises(DataError, match=r"the IMU's y axis is negated .* on the accelerometer and the gyro: the DVL "
                                         r"velocity fits them better by .* than with the IMU turned 180 deg about z .*"
@@ -1820,9 +1824,7 @@ def test_a_level_vehicle_with_its_imu_y_negated_and_its_dvl_off_its_clock_is_tol
     next)."""
     m, _, _ = sim
     t_imu, f_b, omega_b, t, v_b = _slow_in_current(1, 0.4, 0.0, tilt_deg=(0.0, 0.0))
-    y_negated = np.array([1.0, -1.0, 1.0])
-    level = dataclasses.replace(m, imu=dataclasses.replace(m.imu, t=t_imu, f_b=f_b * y_negated,
-                                                           omega_b=omega_b * y_negated))
+    level = _with_imu_y_negated(m, t_imu, f_b, omega_b)
     folder = _folder(tmp_path, (level, t, None), v_b, {"clock": "auto"}, shift=30.0)
     with pytest.raises(DataError, match=r"turned 180 deg about z .*\. Or the IMU's y is negated on the accelerometer "
                                         r"and the gyro .* within \d+ of the turn; if so, set imu_axis_signs "
@@ -1865,9 +1867,7 @@ def test_a_level_vehicle_at_auv_speed_with_its_imu_y_negated_is_refused_naming_t
     negated fits 71-107 noise variances better than the turn: refused naming the y and imu_axis_signs (1, -1, 1)."""
     m, _, _ = sim
     t_imu, f_b, omega_b, t, v_b = _slow_in_current(seed, speed, 0.0, tilt_deg=(0.0, 0.0))
-    y_negated = np.array([1.0, -1.0, 1.0])
-    level = dataclasses.replace(m, imu=dataclasses.replace(m.imu, t=t_imu, f_b=f_b * y_negated,
-                                                           omega_b=omega_b * y_negated))
+    level = _with_imu_y_negated(m, t_imu, f_b, omega_b)
     with pytest.raises(DataError, match=r"the IMU's y axis is negated .* than with the IMU turned 180 deg about z .*"
                                         r"Set imu_axis_signs \(1, -1, 1\) in the configuration"):
         _load(_folder(tmp_path, (level, t, None), v_b))
@@ -1880,9 +1880,7 @@ def test_a_level_vehicle_whose_dvl_points_backward_is_not_told_its_imu_y_judged_
     judged, and the IMU's y left undecided."""
     m, _, _ = sim
     t_imu, f_b, omega_b, t, v_b = _slow_in_current(1, 0.4, 0.0, tilt_deg=(0.0, 0.0))
-    y_negated = np.array([1.0, -1.0, 1.0])
-    level = dataclasses.replace(m, imu=dataclasses.replace(m.imu, t=t_imu, f_b=f_b * y_negated,
-                                                           omega_b=omega_b * y_negated))
+    level = _with_imu_y_negated(m, t_imu, f_b, omega_b)
     with pytest.warns(RuntimeWarning, match=r"points \+180 deg about z from body x"):
         got = _load(_folder(tmp_path, (level, t, None), v_b * [-1.0, -1.0, 1.0]))
     notes = " | ".join(got.meta["streams"]["imu"]["notes"])
