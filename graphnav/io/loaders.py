@@ -1175,7 +1175,7 @@ def screen_mission(mission: Mission) -> Mission:
 
 
 def _declared_unit_advice(meta: dict, imu, t: np.ndarray, v: np.ndarray, cfg: SensorConfig,
-                          speed_reasons=()) -> dict:
+                          speed_reasons: list[str]) -> dict:
     """``{"dvl": why}`` when over half the pings of a DVL in a declared velocity unit (``meta["prepare"]["dvl_unit"]``;
     a column map's without one: the unit its loader took, :func:`graphnav.io.units.taken_velocity_unit`) are refused
     and a smaller unit explains them (:func:`graphnav.io.dvl_frame.smaller_unit_advice`, the body-frame velocity ``v``
@@ -1237,7 +1237,7 @@ class _NoUnitRefusal:
     with_speed: str | None
 
 
-def _refused_for_what_no_unit_changes(meta: dict, speed_reasons=()) -> _NoUnitRefusal:
+def _refused_for_what_no_unit_changes(meta: dict, speed_reasons: list[str]) -> _NoUnitRefusal:
     """The DVL pings refused (``meta["streams"]["dvl"]``) for reasons a velocity unit does not change: all but
     ``speed_reasons`` (the screen's vehicle envelope and a beam beyond its speed). A DVL with over half its pings
     without a valid beam and a few speed spikes was advised knots, in which as many are refused."""
