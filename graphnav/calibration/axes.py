@@ -269,6 +269,7 @@ class AxisDetection:
         decided: False when the data cannot tell the conventions apart (too little rotation); ``signs``
             are then the published A-KIT convention.
         notes: what the warning says beyond the choice.
+        undecided: why the data could not tell y as recorded from y flipped (one of ``notes``), None when decided.
     """
 
     signs: np.ndarray
@@ -276,6 +277,7 @@ class AxisDetection:
     gt_offset: OffsetEstimate | None = None
     decided: bool = True
     notes: list[str] = field(default_factory=list)
+    undecided: str | None = None
 
     def message(self, source: str) -> str:
         how = "against the GT attitude" if self.gt_offset is not None else "from gravity/gyro consistency (no GT)"
@@ -326,7 +328,7 @@ def detect_imu_axis_signs(imu, config: SensorConfig, gt=None, source: str = "IMU
     check, offset = _run_axis_check(imu, gt, config)
     signs = _signs_of(check, gt is not None, source)
     notes = []
-    decided = True
+    undecided = None
     g, a = np.diag(check.gyro_map), np.diag(check.accel_map)
     if gt is not None and np.any(g != a):
         # one sensor decided a flip the other did not see: the flipped axes must then check consistent
@@ -345,13 +347,10 @@ def detect_imu_axis_signs(imu, config: SensorConfig, gt=None, source: str = "IMU
         if np.array_equal(_signs_of(check_f, gt is not None, source), flip):
             offset = offset_f if offset_f is not None else offset
         else:
-            decided = False
             signs = flip.copy()
-            notes.append("the data carry too little rotation/tilt to tell y as recorded from y flipped")
-    if gt is None:
-        notes.append("without GT the gyro z sign follows the accelerometer's gravity and x is taken forward "
-                     "(a turn about z cannot be seen)")
-    return AxisDetection(signs, check, offset, decided, notes)
+            undecided = "the data carry too little rotation/tilt to tell y as recorded from y flipped"
+            notes.append(undecided)
+    return AxisDetection(signs, check, offset, undecided is None, notes, undecided)
 
 
 #: Without GT, the y-as-recorded and y-flipped conventions (both sensors, x forward) are told apart when the
@@ -404,21 +403,24 @@ def _detect_without_gt(imu, source: str, fallback_signs) -> AxisDetection:
     tilt = _tilt_rate(imu)
     level = not tilt > GYRO_TILT_MIN_RADPS
     decided = max(keep, flip) >= (AXIS_MARGIN_LEVEL if level else AXIS_MARGIN_JOINT) * min(keep, flip)
+    undecided = None
     if decided:
         signs = np.array([1.0, y, z])
     elif level:
         signs = np.asarray(fallback_signs, float).copy()
-        notes.append(f"the tilt kinematics fit y as recorded and y flipped within {AXIS_MARGIN_LEVEL:g}x ({keep:.2e} "
+        undecided = (f"the tilt kinematics fit y as recorded and y flipped within {AXIS_MARGIN_LEVEL:g}x ({keep:.2e} "
                      f"vs {flip:.2e} rad/s) on a nearly level vehicle (median tilt rate {tilt:.2e} rad/s, under "
                      f"{GYRO_TILT_MIN_RADPS:g}), whose accelerations in turns its accelerometer's gravity direction "
                      f"follows as much as its tilt")
     else:
         signs = np.asarray(fallback_signs, float).copy()
-        notes.append(f"the tilt kinematics fit y as recorded and y flipped within {AXIS_MARGIN_JOINT:g}x "
+        undecided = (f"the tilt kinematics fit y as recorded and y flipped within {AXIS_MARGIN_JOINT:g}x "
                      f"({keep:.2e} vs {flip:.2e} rad/s): too little tilt motion")
+    if undecided:
+        notes.append(undecided)
     check.gyro_map = check.accel_map = np.diag(signs)
     check.suspects = describe_axis_map(np.diag(signs), "gyro") + describe_axis_map(np.diag(signs), "accelerometer")
-    return AxisDetection(signs, check, None, decided, notes)
+    return AxisDetection(signs, check, None, decided, notes, undecided)
 
 
 def _tilt_rate(imu) -> float:
@@ -504,18 +506,13 @@ def declared_frame_signs(imu, config: SensorConfig, gt=None, source: str = "IMU"
         how += ("; x taken forward, an assumption: without a GT a 180 deg turn about z cannot be seen"
                 + (" (an IMU pitched 180 deg, x aft and z up, needs (-1, 1, -1) and gets (1, -1, -1))" if z < 0 else "")
                 + ", and its heading would then be 180 deg off")
-        return np.asarray(detection.signs, float), how, _undecided(detection)
+        return np.asarray(detection.signs, float), how, detection.undecided
     try:
         detection = detect_imu_axis_signs(imu, config, gt, source, fallback_signs=(1.0, 1.0, 1.0))
     except DataError as exc:
         raise _turned(imu, config, gt, source, field) or exc from None
     signs = np.asarray(detection.signs, float) if detection.decided else np.ones(3)
-    return signs, "the gyro against the GT attitude", _undecided(detection)
-
-
-def _undecided(detection: AxisDetection) -> str | None:
-    """Why a detection could not tell the y as read from the y negated (its last note), None when it did."""
-    return None if detection.decided else detection.notes[-1]
+    return signs, "the gyro against the GT attitude", detection.undecided
 
 
 def _turned(imu, config: SensorConfig, gt, source: str, field: str) -> DataError | None:

@@ -410,6 +410,12 @@ def _forward(course: float) -> bool:
     return bool(abs(course) <= FORWARD_COURSE_RAD)          # NaN: False
 
 
+def _forward_turned_back(course: float, turn: float) -> bool:
+    """Whether a velocity whose mean direction is ``course`` (rad from body +x, about z; NaN for none) points forward
+    (:data:`FORWARD_COURSE_RAD`) once turned back by ``turn`` (rad about z): a DVL mounted turned by ``turn``."""
+    return _forward(np.angle(np.exp(1j * (course - turn))))
+
+
 def check_imu_yaw(imu, dvl, config, meta: dict, frame: dict, model=None, offsets=(0.0,),
                   carried: bool = False) -> int | None:
     """DataError naming the IMU file, its six columns (``frame["fields"]``), the declared frame (``frame["what"]``)
@@ -439,12 +445,12 @@ def check_imu_yaw(imu, dvl, config, meta: dict, frame: dict, model=None, offsets
         # each fit at its own best offset over the whole search: the one offset the velocity's scale fit chose for
         # the IMU as read is where its wrong y fits best (20 s off on a level vehicle at 1.5 m/s), favouring the turn
         wide = offsets if carried else np.union1d(offsets, SCALE_OFFSETS_S)
-        or_y = check_imu_y(imu, dvl, config, meta, frame, model, yaw, wide, undecided)
+        or_y = check_imu_y(imu, config, meta, frame, judge_imu_y(model, imu, dvl, config, yaw, wide), undecided)
     if carried and q >= IMU_YAW_MIN_Q:
         raise _unless_declared_earth(meta, _either_turned(imu, dvl, frame, q, yaw, float("nan"), carried), or_y)
     course = _course(dvl, config) if q >= IMU_YAW_MIN_Q else 0.0
     if not _forward(course):
-        if _forward(np.angle(np.exp(1j * (course - np.deg2rad(yaw))))):
+        if _forward_turned_back(course, np.deg2rad(yaw)):
             return yaw      # the DVL is the one turned (turned back, its velocity points forward)
         raise _unless_declared_earth(meta, _either_turned(imu, dvl, frame, q, yaw, course), or_y)
     if abs(q) < IMU_YAW_MIN_Q:
@@ -462,22 +468,73 @@ def check_imu_yaw(imu, dvl, config, meta: dict, frame: dict, model=None, offsets
         f"({mounting_text(turn_about_z(yaw))}): {_imu_turn_fix(yaw, frame)}", imu.source, field=frame["fields"]), or_y)
 
 
-def check_imu_y(imu, dvl, config, meta: dict, frame: dict, model, yaw: int, offsets=(0.0,),
-                undecided: bool = False) -> str:
-    """DataError naming the IMU file and its columns (``frame`` as :func:`check_imu_yaw`'s) when the DVL velocity fits
-    the IMU better with its y negated on the accelerometer and gyro than as read and than turned ``yaw`` deg about z
-    (the best turn), each by :data:`IMU_YAW_MIN_Q` noise variances (:func:`y_negated_fit`): a y axis with its sign
-    flipped, which the tilt kinematics of a level vehicle cannot see and a turn of 180 deg mimics. ``undecided``: the
-    IMU alone could not tell the y (``meta["imu_axis_signs"]["decided"]`` False): what the DVL says of it is noted,
-    and where y negated fits better than as read but within :data:`IMU_YAW_MIN_Q` of the turn (the DVL off its clock,
-    each fit at its own best offset) the sentence a refusal of the turn adds is returned; else "".
+#: Why the DVL leaves the IMU's y undecided (:attr:`ImuYJudgement.why`): y negated fits better than as read, but the
+#: IMU turned fits about as well (within :data:`IMU_YAW_MIN_Q`; the DVL off its clock, each fit at its own best
+#: offset) ...
+Y_BESIDE_TURN = "beside the turn"
+#: ... or clearly better (the turn is then named alone) ...
+Y_TURN_BETTER = "the turn fits better"
+#: ... as read fits better than y negated, but the velocity points off forward, where a DVL turned 180 deg fits a y
+#: negated IMU as read (the pair differs by x negated, which a level vehicle's turns do not show) ...
+Y_DVL_OFF_FORWARD = "the DVL points off forward"
+#: ... as read and y negated fit within :data:`IMU_YAW_MIN_Q` of each other.
+Y_TOO_CLOSE = "within the noise"
+
+
+@dataclasses.dataclass(frozen=True)
+class ImuYJudgement:
+    """What the DVL velocity says of the sign of the IMU's y axis on the accelerometer and gyro (:func:`judge_imu_y`).
+
+    Attributes:
+        negated: True when y negated fits better than as read and than the IMU turned ``yaw`` deg about z, each by
+            :data:`IMU_YAW_MIN_Q` noise variances; False when as read fits better than y negated by as much and the
+            velocity points forward; None undecided.
+        why: why undecided (:data:`Y_BESIDE_TURN`, :data:`Y_TURN_BETTER`, :data:`Y_DVL_OFF_FORWARD`,
+            :data:`Y_TOO_CLOSE`); "" when decided.
+        q_read, q_turn: how much better y negated fits than as read and than turned (noise variances,
+            :func:`y_negated_fit`).
+        yaw: the turn of the IMU about z compared with (deg, the best of :func:`imu_yaw_fit`).
+        course: the velocity's mean direction (rad from body +x, about z; NaN pointing no one way, or not needed).
+    """
+
+    negated: bool | None
+    why: str
+    q_read: float
+    q_turn: float
+    yaw: int
+    course: float = float("nan")
+
+
+def judge_imu_y(model, imu, dvl, config, yaw: int, offsets=(0.0,)) -> ImuYJudgement:
+    """Whether the DVL velocity fits the IMU better with its y negated on the accelerometer and gyro than as read
+    and than turned ``yaw`` deg about z (the best turn; :func:`y_negated_fit`, each fit at its best of ``offsets``,
+    s, on the clock model ``model``), better as read, or neither by :data:`IMU_YAW_MIN_Q` noise variances: a y axis
+    with its sign flipped, which the tilt kinematics of a level vehicle cannot see and a turn of 180 deg mimics.
     Measured (docs/decisions/units-clocks-axes.md): y negated fits level vehicles 1.8e3-3.0e3 better than as read and
     5.3e2-4.5e3 than the best turn, simulated missions and the ten A-KIT trajectories 1.5e5 and more; as read it fits
-    1.8e3 worse or more; with the IMU or the DVL turned 180 deg, 5.3e2 worse than the turn or more.
-    """
+    1.8e3 worse or more; with the IMU or the DVL turned 180 deg, 5.3e2 worse than the turn or more."""
     q_read, q_turn = y_negated_fit(model, imu, dvl, config, yaw, offsets)
+    if q_read >= IMU_YAW_MIN_Q:
+        if q_turn >= IMU_YAW_MIN_Q:
+            return ImuYJudgement(True, "", q_read, q_turn, yaw)
+        return ImuYJudgement(None, Y_TURN_BETTER if q_turn <= -IMU_YAW_MIN_Q else Y_BESIDE_TURN, q_read, q_turn, yaw)
+    if not q_read <= -IMU_YAW_MIN_Q:
+        return ImuYJudgement(None, Y_TOO_CLOSE, q_read, q_turn, yaw)
+    course = _course(dvl, config)
+    if not _forward(course):
+        return ImuYJudgement(None, Y_DVL_OFF_FORWARD, q_read, q_turn, yaw, course)
+    return ImuYJudgement(False, "", q_read, q_turn, yaw, course)
+
+
+def check_imu_y(imu, config, meta: dict, frame: dict, judged: ImuYJudgement, undecided: bool = False) -> str:
+    """What :func:`judge_imu_y` ``judged`` of the IMU's y, said: a DataError naming the IMU file and its columns
+    (``frame`` as :func:`check_imu_yaw`'s) and the ``imu_axis_signs`` that fix it when y is negated. ``undecided``:
+    the IMU alone could not tell the y (``meta["imu_axis_signs"]["decided"]`` False): what the DVL says of it is
+    noted (``meta["imu_axis_signs"]`` then decided by the DVL, when y is as read), and where y negated fits about as
+    well as the turn (:data:`Y_BESIDE_TURN`) the sentence a refusal of the turn adds is returned; else ""."""
+    q_read, q_turn, yaw, course = judged.q_read, judged.q_turn, judged.yaw, judged.course
     signs = tuple(int(x) for x in applied_axis_signs(config) * Y_NEGATED)
-    if q_read >= IMU_YAW_MIN_Q and q_turn >= IMU_YAW_MIN_Q:
+    if judged.negated:
         raise _unless_declared_earth(meta, DataError(
             f"the IMU's y axis is negated against {frame['what']}, on the accelerometer and the gyro: the DVL velocity "
             f"fits them better by {q_read:.3g} noise variances with y negated than as read, and by {q_turn:.3g} than "
@@ -489,25 +546,21 @@ def check_imu_y(imu, dvl, config, meta: dict, frame: dict, model, yaw: int, offs
             "read)", imu.source, field=frame["fields"]))
     if not undecided:
         return ""
-    if q_read >= IMU_YAW_MIN_Q:         # the turn fits about as well, or clearly better (then named alone)
-        return "" if q_turn <= -IMU_YAW_MIN_Q else (
-            f". Or the IMU's y is negated on the accelerometer and the gyro (a left-handed axis set, which its tilt "
-            f"kinematics cannot tell here): that fits {q_read:.3g} noise variances better than as read and within "
-            f"{abs(q_turn):.0f} of the turn; if so, set imu_axis_signs {signs} in the configuration")
-    course = _course(dvl, config)
-    if q_read <= -IMU_YAW_MIN_Q and not _forward(course):
-        # a DVL turned 180 deg fits a y negated IMU as read (the pair differs by x negated, which a level vehicle's
-        # turns do not show): a velocity pointing backward or sideways judges no y
+    if judged.negated is False:
+        add_note(meta, "imu", f"its y axis sign judged against the DVL instead: the velocity fits the IMU as read "
+                              f"better than with y negated by {-q_read:.3g} noise variances")
+        meta["imu_axis_signs"].update(decided=True, by="the DVL")
+    elif judged.why == Y_BESIDE_TURN:
+        return (f". Or the IMU's y is negated on the accelerometer and the gyro (a left-handed axis set, which its "
+                f"tilt kinematics cannot tell here): that fits {q_read:.3g} noise variances better than as read and "
+                f"within {abs(q_turn):.0f} of the turn; if so, set imu_axis_signs {signs} in the configuration")
+    elif judged.why == Y_DVL_OFF_FORWARD:
         add_note(meta, "imu", f"its y axis sign not judged against the DVL either: the velocity fits the IMU as read "
                               f"better than with y negated by {-q_read:.3g} noise variances, but "
                               + (f"it points {np.degrees(course):+.0f} deg from body x" if np.isfinite(course) else
                                  "its pings point no one way (reversing, hovering or moving sideways)")
                               + ", and a DVL turned 180 deg fits a y negated as read")
-    elif q_read <= -IMU_YAW_MIN_Q:
-        add_note(meta, "imu", f"its y axis sign judged against the DVL instead: the velocity fits the IMU as read "
-                              f"better than with y negated by {-q_read:.3g} noise variances")
-        meta["imu_axis_signs"].update(decided=True, by="the DVL")
-    else:
+    elif judged.why == Y_TOO_CLOSE:
         add_note(meta, "imu", f"its y axis sign not judged against the DVL either: the velocity changes tell y as read "
                               f"from y negated by {-q_read:+.0f} noise variances ({IMU_YAW_MIN_Q:g} needed)")
     return ""
@@ -771,7 +824,7 @@ def turn_found(dvl, config, yaw: int, frame: dict, fixes: dict) -> str:
                   f"{_imu_turn_fix(yaw, frame)}")
     if _forward(course):
         return f"The DVL velocity points forward as read: {imu_turned}"
-    if _forward(np.angle(np.exp(1j * (course - np.deg2rad(yaw))))):
+    if _forward_turned_back(course, np.deg2rad(yaw)):
         return f"The DVL velocity points forward only turned: {dvl_turned}"
     where = f"{np.degrees(course):+.0f} deg from body x" if np.isfinite(course) else "no one way"
     return f"The DVL velocity points {where}, forward neither as read nor turned: either {dvl_turned}; or {imu_turned}"
@@ -853,7 +906,7 @@ def check_velocity_against_imu(imu, dvl, config, meta: dict, moved: bool = False
     carried = bool(meta.get(CARRIED))
     # a velocity its own fit finds turned, pointing forward turned back, is the DVL's (45 deg is no IMU quarter turn)
     turned = turn_r2 >= MIN_SCALE_R2 and abs(yaw) > MAX_YAW_RAD
-    dvl_yawed = turned and not carried and _forward(np.angle(np.exp(1j * (_course(dvl, config) - yaw))))
+    dvl_yawed = turned and not carried and _forward_turned_back(_course(dvl, config), yaw)
     if imu_frame is not None and not dvl_yawed:     # before the DVL's yaw: a turned IMU turns the velocity too
         # the best scale's offset where its fit explains enough to fix the DVL's clock; where not (a vehicle holding
         # its speed: r^2 0.02-0.4) its best is noise, up to 20 s off, and every fit is read at its own best offset

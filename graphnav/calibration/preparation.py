@@ -37,7 +37,7 @@ detection (:func:`graphnav.calibration.axes.declared_frame_signs`): data that co
 DataError, an implied frame is corrected with a warning; where the data cannot tell the y (a level vehicle's tilt
 kinematics) the declared y is taken and noted, naming ``imu_axis_signs``; without a reference attitude on the IMU
 clock, an IMU turned about z, or with its y negated, is found against the DVL
-(:func:`graphnav.calibration.dvl_scale.check_imu_yaw`, :func:`~graphnav.calibration.dvl_scale.check_imu_y`; an A-KIT
+(:func:`graphnav.calibration.dvl_scale.check_imu_yaw`, :func:`~graphnav.calibration.dvl_scale.judge_imu_y`; an A-KIT
 folder without GT gets it with the DVL's unit, yaw and FLU checks as logs and bags do,
 :func:`~graphnav.calibration.dvl_scale.check_velocity_against_imu`); a depth is checked against the vehicle's
 vertical velocity

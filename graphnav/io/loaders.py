@@ -1167,38 +1167,40 @@ def screen_mission(mission: Mission) -> Mission:
     if gt is not None and not meta.get("gt_screened"):     # the column-map loader screened it with its lines
         bad = refuse(meta, "gt", gt_implausible(gt.t, gt.v_n, cfg.dvl), gt.source)
         gt = _kept(meta, "gt", gt, bad)
-    check_refused_fraction(meta, advice=_declared_unit_advice(meta, imu, dvl.t, v, cfg))
+    speed_reasons = [r for r in masks if r != NO_BOTTOM_LOCK]      # what a velocity unit changes
+    check_refused_fraction(meta, advice=_declared_unit_advice(meta, imu, dvl.t, v, cfg, speed_reasons))
     if all(a is b for a, b in zip((imu, dvl, depth, gt), (mission.imu, mission.dvl, mission.depth, mission.gt))):
         return mission
     return dataclasses.replace(mission, imu=imu, dvl=dvl, depth=depth, gt=gt)
 
 
-def _declared_unit_advice(meta: dict, imu, t: np.ndarray, v: np.ndarray, cfg: SensorConfig) -> dict:
+def _declared_unit_advice(meta: dict, imu, t: np.ndarray, v: np.ndarray, cfg: SensorConfig,
+                          speed_reasons: list[str]) -> dict:
     """``{"dvl": why}`` when over half the pings of a DVL in a declared velocity unit (``meta["prepare"]["dvl_unit"]``;
     a column map's without one: the unit its loader took, :func:`graphnav.io.units.taken_velocity_unit`) are refused
     and a smaller unit explains them (:func:`graphnav.io.dvl_frame.smaller_unit_advice`, the body-frame velocity ``v``
     (M,3, m/s) at ``t`` (s) against ``imu``): a unit 10x too large, or knots read as m/s, puts a vehicle beyond its
     envelope, where the refusal's "check the units" does not say which; else ``{}``. Where the pings refused for
     something a unit does not change (no valid beam, bottom lock lost) are over half the stream by themselves, the
-    refusal says so (:func:`_refused_for_what_no_unit_changes`), and a unit is advised beside it only where the pings
-    refused for their speed are at least :data:`UNIT_ADVICE_MIN_SPEED_SHARE` of the rest (not a few spikes). Beside
+    refusal says so (:func:`_refused_for_what_no_unit_changes`; ``speed_reasons``: the refusals a unit changes), and a
+    unit is advised beside it only where the pings refused for their speed are at least
+    :data:`UNIT_ADVICE_MIN_SPEED_SHARE` of the rest (not a few spikes). Beside
     any such pings a unit is advised only where the IMU's accelerations explain it clearly better
     (:data:`UNIT_ADVICE_CLEARLY`); where none is, the refusal names both kinds of pings and what to check for each."""
     from graphnav.io.units import judged_velocity_unit
     declared = judged_velocity_unit(meta)
     if not declared or not over_refused_limit(meta, "dvl"):
         return {}
-    not_the_unit, speed_share, both = _refused_for_what_no_unit_changes(meta)
+    refused = _refused_for_what_no_unit_changes(meta, speed_reasons)
     advice = None
-    if not_the_unit is None or speed_share >= UNIT_ADVICE_MIN_SPEED_SHARE:
+    if refused.alone is None or refused.speed_share >= UNIT_ADVICE_MIN_SPEED_SHARE:
         from graphnav.io.dvl_frame import smaller_unit_advice
         # beside pings refused whatever the unit, the speed alone cannot tell spikes from a unit: the IMU must, where
         # it sees the pings, on those the declared unit keeps (the spikes spoil every unit's fit alike)
         advice = smaller_unit_advice(t, v, declared, imu.t, imu.f_b, imu.omega_b, cfg.dvl,
-                                     clearly=1.0 if not both else UNIT_ADVICE_CLEARLY,
-                                     speed_alone=not_the_unit is None)
-    if not (not_the_unit or advice) and both:
-        not_the_unit = both
+                                     clearly=1.0 if not refused.with_speed else UNIT_ADVICE_CLEARLY,
+                                     speed_alone=refused.alone is None)
+    not_the_unit = refused.alone or (refused.with_speed if not advice else None)
     said = "; besides, ".join(s for s in (not_the_unit, advice) if s)
     return {"dvl": said} if said else {}
 
@@ -1217,20 +1219,34 @@ UNIT_ADVICE_MIN_SPEED_SHARE = 0.1
 UNIT_ADVICE_CLEARLY = 0.9
 
 
-def _refused_for_what_no_unit_changes(meta: dict) -> tuple[str | None, float, str | None]:
-    """``(what to check, share, what to check for both)``: the first when the DVL pings refused for reasons a velocity
-    unit does not change (all but the vehicle's envelope and a beam beyond its speed) are over
-    :data:`~graphnav.core.screening.MAX_REFUSED_FRACTION` of the stream by themselves (``meta["streams"]["dvl"]``),
-    naming them and the few a unit could, else None; ``share``: the pings refused for their speed over those not
-    refused for the other reasons; the last, where there are pings of both kinds (else None), names both and what to
-    check for each, for a refusal no unit explains. A DVL with over half its pings without a valid beam and a few speed
-    spikes was advised knots, in which as many are refused."""
+@dataclasses.dataclass(frozen=True)
+class _NoUnitRefusal:
+    """What the DVL pings refused for reasons a velocity unit does not change say
+    (:func:`_refused_for_what_no_unit_changes`).
+
+    Attributes:
+        alone: what to check, naming those pings and the few a unit could, when they are over
+            :data:`~graphnav.core.screening.MAX_REFUSED_FRACTION` of the stream by themselves; else None.
+        speed_share: the pings refused for their speed over those not refused for the other reasons.
+        with_speed: where there are pings of both kinds, both named and what to check for each, for a refusal no unit
+            explains; else None.
+    """
+
+    alone: str | None
+    speed_share: float
+    with_speed: str | None
+
+
+def _refused_for_what_no_unit_changes(meta: dict, speed_reasons: list[str]) -> _NoUnitRefusal:
+    """The DVL pings refused (``meta["streams"]["dvl"]``) for reasons a velocity unit does not change: all but
+    ``speed_reasons`` (the screen's vehicle envelope and a beam beyond its speed). A DVL with over half its pings
+    without a valid beam and a few speed spikes was advised knots, in which as many are refused."""
     entry = meta["streams"]["dvl"]
-    by_speed = {r: n for r, n in entry["refused"].items() if r.startswith("outside the envelope") or "beam beyond" in r}
+    by_speed = {r: n for r, n in entry["refused"].items() if r in speed_reasons}
     others = {r: n for r, n in entry["refused"].items() if r not in by_speed}
     share = sum(by_speed.values()) / max(entry["read"] - sum(others.values()), 1)
     if not others:
-        return None, share, None
+        return _NoUnitRefusal(None, share, None)
     most = max(others, key=others.get)
     said = (f"{sum(others.values())} of the {entry['read']} pings are refused for what no velocity unit changes "
             f"({', '.join(r.split(' (')[0] for r in sorted(others, key=others.get, reverse=True))})")
@@ -1243,7 +1259,7 @@ def _refused_for_what_no_unit_changes(meta: dict) -> tuple[str | None, float, st
         f"explains (spikes, or a vehicle faster than its configured envelope): check {what}; and check the DVL's "
         "velocity for spikes and the configuration's sensor ranges")
     if not sum(others.values()) > MAX_REFUSED_FRACTION * entry["read"]:
-        return None, share, both
+        return _NoUnitRefusal(None, share, both)
     if by_speed:
         said += f", over {MAX_REFUSED_FRACTION:.0%} without the {sum(by_speed.values())} beyond the vehicle's envelope"
-    return f"{said}: check {what}", share, both
+    return _NoUnitRefusal(f"{said}: check {what}", share, both)
