@@ -1015,8 +1015,8 @@ def stamp_order(t: np.ndarray, rows: np.ndarray, lines: np.ndarray, source: str,
 
 
 def nudged_copies(t: np.ndarray, rows: np.ndarray, stream: str = "") -> tuple[np.ndarray, float]:
-    """``(indexes, s)``: the indexes (file order, sorted) of the rows (``rows`` (N,k) as read, their stamps ``t`` (N,) s) that repeat the
-    row before them in time in every value but the stamp, with a stamp later by less than
+    """``(indexes, s)``: the indexes (file order, sorted) of the rows (``rows`` (N,k) as read, their stamps ``t``
+    (N,) s) that repeat the row before them in time in every value but the stamp, with a stamp later by less than
     :data:`NUDGED_COPY_STEP_SHARE` of the median positive step: the same sample written twice, its stamp nudged. An
     IMU's whose readings repeat from stamp to stamp as often (:func:`readings_repeat`: at rest with coarse counts) may
     be samples jitter moved close: none. ``s``: the largest such nudge, s."""
