@@ -307,6 +307,24 @@ def test_a_row_written_twice_1_ms_later_is_dropped_from_a_jittered_column_map_lo
         assert m.meta["streams"][stream]["refused"] == {screening.NUDGED_COPY: 1}
 
 
+def test_a_dvl_ping_1_ms_after_another_with_other_values_is_kept_and_doubted(sim, tmp_path):
+    """Two DVL pings 1 ms apart with other values in a jittered column-map log (a row written twice with another
+    reading, or two pings stamped together on receipt): nothing tells the right one, so both are kept, but they were
+    kept without a word; now warned about with the line and counted as doubted. The clean log says nothing."""
+    from graphnav.core import screening
+    cmap = _separate_files(tmp_path, sim)
+    _jittered_stamps(tmp_path / "dvl.csv", np.random.default_rng(5), 20)
+    cfg = _config(tmp_path, sim, cmap)
+    clean = load_mission(tmp_path, cfg, prepare=False)
+    assert not clean.meta["streams"]["dvl"].get("doubted")
+    _insert_copy(tmp_path / "dvl.csv", 21, lambda f: [repr(float(f[0]) + 1.0), str(float(f[1]) + 5.0)] + f[2:])
+    m, messages = _load_recording(tmp_path, cfg)
+    assert len(m.dvl.t) == len(clean.dvl.t) + 1
+    assert any(s.startswith(f"{tmp_path / 'dvl.csv'}: 1 dvl row(s) stamped under a fifth of the median step")
+               and "at line(s) 22" in s for s in messages), messages
+    assert m.meta["streams"]["dvl"]["doubted"] == {screening.CLOSE_SAMPLES: 1}
+
+
 def test_an_imu_at_rest_with_coarse_counts_keeps_its_repeated_samples_jitter_moved_close():
     """An IMU at rest in coarse counts repeats its reading from sample to sample; where jitter moves two samples
     under half a period apart their rows are equal too: samples, not a row written twice (its readings repeat as often

@@ -19,14 +19,14 @@ and 3 and the move of the GT to the IMU point, is the prepare step's (the read m
    ``(N-1)/N`` for a file of N rows (:func:`published_period_factor`). The factor comes from the stamp step,
    not from the rows present or the last stamp: a file with rows deleted (an outage cut out of the log, most of its
    rows) or cut short keeps the stamps it had in the whole file. Rows missing from the stamp grid are warned about and
-   noted; a row written twice 1 ms later (the same values: dropped by :func:`read_csv`; other values: kept, on the
-   grid point of the row before it, warned about and doubted) leaves the grid read. The stamps are scaled about the
-   folder's clock origin (:func:`akit_stamp_origins`): 0 for the published
-   files, cut or trimmed at the start or not (their stamps stay on the grid that starts at 0), the first stamp of
-   a folder on a clock more than a day from zero (a Unix clock: scaled about zero, 1.7e9 s moved by 4e6 s), a
-   file's own first stamp when it starts on a clock days away. Stamps that are not such a grid (a logger's own, jittered
-   stamps; stamps already on the period; a grid at another rate) are kept as read, with a note, and a folder
-   with files of both kinds is warned about.
+   noted; a row written twice 1 ms later (the same values: dropped by :func:`read_csv`; other values: kept, warned
+   about and doubted there, and on the grid point of the row before it) leaves the grid read. The stamps are scaled
+   about the folder's clock origin (:func:`akit_stamp_origins`): 0 for the published files, cut or trimmed at the
+   start or not (their stamps stay on the grid that starts at 0), the first stamp of a folder on a clock more than a
+   day from zero (a Unix clock: scaled about zero, 1.7e9 s moved by 4e6 s), a file's own first stamp when it starts
+   on a clock days away. Stamps that are not such a grid (a logger's own, jittered stamps; stamps already on the
+   period; a grid at another rate) are kept as read, with a note, and a folder with files of both kinds is warned
+   about.
    Stamps that are not times (beyond :data:`graphnav.core.screening.MAX_STAMP_S`, or a lone stamp a day away
    from its neighbours) are refused with their rows and counted, before the order check.
 2. **IMU axes.** ``imu_axis_signs`` multiplies the raw x/y/z of both accelerometer and gyro. The
@@ -115,6 +115,7 @@ from graphnav.core.rotations import euler_to_C_b_n
 from graphnav.core.screening import (
     MAX_REFUSED_FRACTION,
     NO_BOTTOM_LOCK,
+    SAME_POINT_SHARE,
     ZERO_RESOLUTION,
     beams_out_of_range,
     check_refused_fraction,
@@ -135,7 +136,7 @@ from graphnav.core.screening import (
     warn_no_bottom_lock,
     with_position_spikes,
 )
-from graphnav.core.streams import add_note, count_read, count_refused, say_doubted
+from graphnav.core.streams import add_note, count_read, count_refused
 
 #: Column names of the published A-KIT files, in order.
 AKIT_COLUMNS: dict[str, tuple[str, ...]] = {
@@ -424,7 +425,7 @@ def read_akit(folder: str | Path, *, rescale_stamps: bool = True, repair: bool =
     # before the screening: deg/s is not out of range; the GT rows to refuse are found with its units
     gt_refused = _akit_units(imu, dvl, gt, lines, files, meta, cfg)
     if rescale_stamps:
-        _rescale_akit_stamps({"imu": imu, "dvl": dvl, "gt": gt}, files, meta, lines)
+        _rescale_akit_stamps({"imu": imu, "dvl": dvl, "gt": gt}, files, meta)
     # the DVL in the IMU's axes tells a knock from a burst of bad samples
     with np.errstate(invalid="ignore"):
         on_imu_axes = (dvl[:, 0], dvl[:, 1:4] @ cfg.dvl.C_d_b.T)
@@ -555,22 +556,11 @@ def grid_step(t: np.ndarray) -> float | None:
     return float(step)
 
 
-#: A stamp less than this share of a grid step after the one before it is written for the same grid point
-#: (:func:`grid_step`): a row written twice 1 ms later is 0.001 of a 1 Hz step, 0.1 of a 100 Hz one; a logger's burst
-#: (a stamp 0.3 of a step after a grid point) is no grid.
-SAME_POINT_SHARE = 0.2
-
-
 def grid_points(t: np.ndarray, step: float) -> np.ndarray:
     """(N,) int: the point of a grid of step ``step`` (s) each stamp ``t`` (N,) s lies on, in steps since the first
     stamp (:func:`grid_step`; two stamps on one point: a row written twice)."""
     t = np.asarray(t, dtype=float)
     return np.round((t - t[0]) / step).astype(int)
-
-
-#: Reason under which rows on the stamp grid point of the row before them, with other values, are doubted
-#: (:func:`_rescale_akit_stamps`).
-SHARED_GRID_POINT = "written for the stamp grid point of the row before it, with other values (kept)"
 
 
 #: The median stamp difference spans a hole where the shortest difference is under this fraction of it (a step of
@@ -671,15 +661,15 @@ def akit_stamp_origins(first: dict[str, float], last: dict[str, float]) -> dict[
     return {k: common if t0 - folder <= longest else t0 for k, t0 in first.items()}
 
 
-def _rescale_akit_stamps(arrays: dict, files: dict, meta: dict, lines: dict) -> None:
+def _rescale_akit_stamps(arrays: dict, files: dict, meta: dict) -> None:
     """Put each published file's stamps (in place) back on the sensor's period: ``(N-1)/N`` of its published
     row count N (:func:`published_period_factor`, from the stamp step: rows deleted or a file cut short shift
     nothing), about the folder's clock origin (:func:`akit_stamp_origins`: 0 for the published files, trimmed or
     not; the first stamp of a folder on a Unix clock). Rows missing from a file's stamp grid are warned about and
     noted in ``meta["streams"]``; rows on the grid point of the row before them (written twice 1 ms later with other
-    values) are kept, rescaled with the grid, and warned about with their ``lines`` (stream -> file line of each row)
-    and counted as doubted; a file whose stamps are not the published grid is left as read, and noted; a folder with
-    files of both kinds is warned about (their clocks may now disagree)."""
+    values, which :func:`read_csv` warned about) are kept and rescaled with the grid; a file whose stamps are not the
+    published grid is left as read, and noted; a folder with files of both kinds is warned about (their clocks may
+    now disagree)."""
     present = {k: a for k, a in arrays.items() if a is not None and len(a) >= 2}
     origins = akit_stamp_origins({k: float(a[0, 0]) for k, a in present.items()},
                                  {k: float(a[-1, 0]) for k, a in present.items()})
@@ -693,10 +683,8 @@ def _rescale_akit_stamps(arrays: dict, files: dict, meta: dict, lines: dict) -> 
             continue
         rescaled.append(k)
         points = grid_points(a[:, 0], step)
-        twice = np.flatnonzero(np.diff(points) == 0) + 1
-        if twice.size:
-            _say_shared_grid_points(a[:, 0], twice, step, k, str(files[k.upper()]), lines[k], meta)
-        missing = int(points[-1]) + 1 - (len(a) - twice.size)
+        # rows on the point of the row before them (read_csv warned: say_close_samples) fill no hole
+        missing = int(points[-1]) + 1 - np.unique(points).size
         if missing > 0:
             gap = int(np.argmax(np.diff(a[:, 0])))
             text = (f"{missing} row(s) missing from the {step:.6g} s stamp grid (largest hole after "
@@ -714,19 +702,6 @@ def _rescale_akit_stamps(arrays: dict, files: dict, meta: dict, lines: dict) -> 
                 "rescale_stamps=False")
         add_note(meta, kept[0], text)
         warnings.warn(f"{files[kept[0].upper()]}: {text}", RuntimeWarning, stacklevel=4)
-
-
-def _say_shared_grid_points(t: np.ndarray, twice: np.ndarray, step: float, stream: str, source: str,
-                            lines: np.ndarray, meta: dict) -> None:
-    """Warn about and count as doubted the rows ``twice`` (indexes) of stamps ``t`` (s) on the grid point (step
-    ``step`` s) of the row before them: two samples where the grid holds one, both kept (nothing tells the right one;
-    ``lines``: the file line of each row)."""
-    later_ms = float(np.max(t[twice] - t[twice - 1])) * 1e3
-    say_doubted(meta, stream, source, f"{twice.size} row(s) stamped for the {step:.6g} s grid point of the row "
-                f"before them (up to {later_ms:.3g} ms later) with other values: two {stream} samples where the grid "
-                "holds one (a sample written twice with another reading, or two samples stamped together), both kept "
-                f"and rescaled with the grid, at line(s) {first_lines(lines[twice])}", SHARED_GRID_POINT,
-                int(twice.size), stacklevel=4)
 
 
 #: Keys of a configuration file that :func:`graphnav.calibration.preparation.prepare` applies (a mission read from an
