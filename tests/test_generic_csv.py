@@ -271,6 +271,81 @@ def _load_recording(path, cfg, **kwargs):
     return m, [str(w.message) for w in rec]
 
 
+def _jittered_stamps(path, rng, jitter_ms):
+    """Move each stamp (ms) of a column-map file by a whole number of ms up to ``jitter_ms`` (a logger's clock)."""
+    lines = path.read_text().splitlines()
+    for i in range(1, len(lines)):
+        cells = lines[i].split(",")
+        cells[0] = repr(float(cells[0]) + float(rng.integers(-jitter_ms, jitter_ms + 1)))
+        lines[i] = ",".join(cells)
+    path.write_text("\n".join(lines) + "\n")
+
+
+def test_a_row_written_twice_1_ms_later_is_dropped_from_a_jittered_column_map_log(sim, tmp_path):
+    """An IMU and a DVL row each written again 1 ms later with the same values, in a log whose stamps jitter by up to
+    2 ms (IMU) and 20 ms (DVL): kept before, an extra IMU sample (warned as a step of the IMU clock) and a DVL ping
+    counted twice. Each is the same sample: dropped, warned naming the file and line, and counted; the log reads as
+    the clean one."""
+    from graphnav.core import screening
+    cmap = _separate_files(tmp_path, sim)
+    rng = np.random.default_rng(3)
+    _jittered_stamps(tmp_path / "imu.csv", rng, 2)
+    _jittered_stamps(tmp_path / "dvl.csv", rng, 20)
+    cfg = _config(tmp_path, sim, cmap)
+    clean = load_mission(tmp_path, cfg, prepare=False)
+    for name, line in (("imu.csv", 1501), ("dvl.csv", 21)):
+        _insert_copy(tmp_path / name, line, lambda f: [repr(float(f[0]) + 1.0)] + f[1:])
+    m, messages = _load_recording(tmp_path, cfg)
+    for stream in ("imu", "dvl"):
+        np.testing.assert_array_equal(getattr(m, stream).t, getattr(clean, stream).t)
+    np.testing.assert_array_equal(m.imu.f_b, clean.imu.f_b)
+    np.testing.assert_array_equal(m.dvl.beams, clean.dvl.beams)
+    for name, line in (("imu.csv", 1502), ("dvl.csv", 22)):
+        assert f"{tmp_path / name}: 1 row(s) repeating the row before them in every value up to 1 ms later (the same " \
+               f"sample written twice, its stamp nudged) dropped, at line(s) {line}" in messages, messages
+    for stream in ("imu", "dvl"):
+        assert m.meta["streams"][stream]["refused"] == {screening.NUDGED_COPY: 1}
+
+
+def test_a_dvl_ping_1_ms_after_another_with_other_values_is_kept_and_doubted(sim, tmp_path):
+    """Two DVL pings 1 ms apart with other values in a jittered column-map log (a row written twice with another
+    reading, or two pings stamped together on receipt): nothing tells the right one, so both are kept, but they were
+    kept without a word; now warned about with the line and counted as doubted. The clean log says nothing."""
+    from graphnav.core import screening
+    cmap = _separate_files(tmp_path, sim)
+    _jittered_stamps(tmp_path / "dvl.csv", np.random.default_rng(5), 20)
+    cfg = _config(tmp_path, sim, cmap)
+    clean = load_mission(tmp_path, cfg, prepare=False)
+    assert not clean.meta["streams"]["dvl"].get("doubted")
+    _insert_copy(tmp_path / "dvl.csv", 21, lambda f: [repr(float(f[0]) + 1.0), str(float(f[1]) + 5.0)] + f[2:])
+    m, messages = _load_recording(tmp_path, cfg)
+    assert len(m.dvl.t) == len(clean.dvl.t) + 1
+    assert any(s.startswith(f"{tmp_path / 'dvl.csv'}: 1 dvl row(s) stamped under a fifth of the median step")
+               and "at line(s) 22" in s for s in messages), messages
+    assert m.meta["streams"]["dvl"]["doubted"] == {screening.CLOSE_SAMPLES: 1}
+
+
+def test_an_imu_at_rest_with_coarse_counts_keeps_its_repeated_samples_jitter_moved_close():
+    """An IMU at rest in coarse counts repeats its reading from sample to sample; where jitter moves two samples
+    under half a period apart their rows are equal too: samples, not a row written twice (its readings repeat as often
+    across whole periods). Noisy readings on a clock jittering by up to 2 ms, one row written again 1 ms later, lose
+    that row only."""
+    from graphnav.core.screening import nudged_copies
+    rng = np.random.default_rng(4)
+    n = 3000
+    t = np.arange(n) * 0.01 + rng.uniform(-0.004, 0.004, n)
+    at_rest = np.round(rng.normal(0.0, 0.02, (n, 6)) / 0.05) * 0.05 + [0, 0, -9.8, 0, 0, 0]
+    rows = np.column_stack([t, at_rest])
+    close = np.diff(t) < 0.005
+    assert close.sum() > 100 and np.all(rows[1:, 1:][close] == rows[:-1, 1:][close], axis=1).sum() > 10
+    assert nudged_copies(t, rows, "imu")[0].size == 0
+    t = np.arange(n) * 0.01 + rng.uniform(-0.002, 0.002, n)
+    noisy = np.column_stack([t, at_rest + rng.normal(0.0, 1e-3, (n, 6))])
+    twice = np.insert(noisy, 1001, noisy[1000] + [0.001, 0, 0, 0, 0, 0, 0], axis=0)
+    kept, later = nudged_copies(twice[:, 0], twice, "imu")
+    assert kept.tolist() == [1001] and later == pytest.approx(0.001)
+
+
 def test_a_row_written_twice_is_dropped_and_two_rows_under_one_stamp_need_repair_stamps(sim, tmp_path):
     """As in an A-KIT folder: an IMU row written twice exactly is dropped, warned about with its line and counted;
     a repeated stamp with other values is refused naming the file, line, column and --repair-stamps, which drops

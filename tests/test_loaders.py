@@ -924,6 +924,95 @@ def test_akit_row_written_twice_is_dropped_without_repair(tmp_path):
         load_akit(folder)
 
 
+def _write_twice(path, line, later_s, add=0.0):
+    """Write file ``line`` (1-based) of a CSV again after itself, its stamp ``later_s`` s later and ``add`` added to
+    its values (a logger writing a row twice with its stamp nudged)."""
+    lines = path.read_text().splitlines()
+    cells = lines[line - 1].split(",")
+    lines.insert(line, ",".join([repr(float(cells[0]) + later_s)] + [repr(float(c) + add) for c in cells[1:]]))
+    path.write_text("\n".join(lines) + "\n")
+
+
+def _read_raw(folder):
+    from graphnav.io.loaders import read_akit
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        raw = read_akit(folder)
+    return raw, [str(w.message) for w in caught if issubclass(w.category, RuntimeWarning)]
+
+
+def _noisy_imu(folder, seed=0):
+    """The synthetic folder's IMU with white noise on every value (the real files' rows never repeat)."""
+    imu = next(folder.glob("IMU_*.csv"))
+    data = np.loadtxt(imu, delimiter=",", skiprows=1)
+    data[:, 1:] += np.random.default_rng(seed).normal(0.0, 1e-3, data[:, 1:].shape)
+    write_csv(imu, AKIT_COLUMNS["IMU"], data.tolist())
+    return imu
+
+
+@pytest.mark.parametrize("kind, line", [("DVL", 2), ("DVL", 61), ("DVL", 120), ("IMU", 6001)])
+def test_akit_row_written_twice_1_ms_later_is_dropped_and_the_published_grid_read(tmp_path, kind, line):
+    """A DVL or IMU row written again 1 ms later with the same values (a logger writing a row twice, its stamp
+    nudged): the file's stamps were no longer taken for the published linspace(0, T, N) grid and were kept as read,
+    the whole file 0.25 % slow (the DVL 0.3 s off at 120 s). The row is the same sample: dropped, warned naming the
+    file and line and counted, and the file reads as the clean one, stamps rescaled."""
+    from graphnav.core import screening
+    folder = make_akit_folder(tmp_path, n=1)
+    _noisy_imu(folder)
+    clean, _ = _read_raw(folder)
+    path = folder / f"{kind}_trajectory1.csv"
+    _write_twice(path, line, 0.001)
+    raw, caught = _read_raw(folder)
+    stream = kind.lower()
+    np.testing.assert_array_equal(getattr(raw, stream), getattr(clean, stream))
+    assert not any("kept as read" in n for n in raw.meta["streams"][stream]["notes"])
+    said = (f"{path}: 1 row(s) repeating the row before them in every value up to 1 ms later (the same sample written "
+            f"twice, its stamp nudged) dropped, at line(s) {line + 1}")
+    assert any(w.startswith(said) for w in caught), caught
+    assert raw.meta["streams"][stream]["refused"] == {screening.NUDGED_COPY: 1}
+
+
+@pytest.mark.parametrize("kind, line, said", [
+    ("DVL", 61, "s) after the row before them (up to 1 ms later), with other values: two samples where the stream "
+                "makes one"),
+    ("IMU", 6001, "the IMU clock steps -9.")])
+def test_akit_row_written_twice_with_other_values_1_ms_later_is_kept_on_the_published_grid(tmp_path, kind, line, said):
+    """A DVL ping (or IMU sample) 1 ms after the one before it with other values: two samples where the grid holds
+    one, and nothing tells which is right. Both are kept, warned about with the line and counted as doubted (the
+    IMU's as a step of its clock); the file's stamps were kept as read, 0.25 % slow, and are now the published grid
+    rescaled: every other row's stamp as in the clean file, the extra one rescaled with them."""
+    folder = make_akit_folder(tmp_path, n=1)
+    _noisy_imu(folder)
+    clean, _ = _read_raw(folder)
+    path = folder / f"{kind}_trajectory1.csv"
+    stamp = float(path.read_text().splitlines()[line - 1].split(",")[0])
+    _write_twice(path, line, 0.001, add=0.01)
+    raw, caught = _read_raw(folder)
+    stream = kind.lower()
+    a, b = getattr(clean, stream), getattr(raw, stream)
+    extra = line - 1                                   # the data row after the file line written twice
+    np.testing.assert_array_equal(np.delete(b, extra, axis=0), a)
+    factor = {"dvl": 119 / 120, "imu": 11999 / 12000}[stream]
+    assert b[extra, 0] == pytest.approx((stamp + 0.001) * factor, abs=1e-9)
+    assert any(said in w and f"line {line + 1}" in w.replace("line(s)", "line") for w in caught), caught
+    assert sum(raw.meta["streams"][stream]["doubted"].values()) == 1
+    assert not any("missing from" in w for w in caught), caught
+
+
+def test_a_published_grid_with_a_stamp_written_twice_is_still_the_grid():
+    """A stamp 1 ms after a grid stamp (a 1 Hz or 100 Hz row written twice) is written for that grid point: the grid
+    and its factor are read, the stamps leaving it 0.25 % slow before; a stamp 0.3 of a step after one (a logger's
+    burst) is still no grid."""
+    from graphnav.io import loaders
+    for n, rate in ((400, 1.0), (40000, 100.0)):
+        t = np.linspace(0.0, 400.0, n)
+        twice = np.insert(t, 200, t[199] + 0.001)
+        assert loaders.published_period_factor(twice, rate) == pytest.approx((n - 1) / n, rel=1e-12)
+        points = loaders.grid_points(twice, loaders.grid_step(twice))
+        assert np.flatnonzero(np.diff(points) == 0).tolist() == [199]
+        assert loaders.published_period_factor(np.insert(t, 200, t[199] + 0.3 / rate), rate) is None
+
+
 def test_akit_zero_dvl_velocity_and_an_impossible_latitude_refuse_their_ping_and_row(tmp_path):
     """A DVL row of exactly 0, 0, 0 (how drivers log a ping without bottom lock) is refused, warned with its lines
     and counted, instead of being a measurement of a vehicle standing still; a latitude of 1e308 refuses its GT row

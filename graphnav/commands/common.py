@@ -81,7 +81,8 @@ def add_mission_arguments(parser: argparse.ArgumentParser) -> None:
     g.add_argument("--repair-stamps", action="store_true",
                    help="A-KIT folders and column-map CSV logs: drop rows whose stamp repeats an earlier one "
                         "and sort the rest (warned and counted) instead of refusing the file (without it, a row "
-                        "repeating an earlier one exactly is dropped, warned and counted; an IMU's packets sharing "
+                        "repeating an earlier one exactly, or the row before it in every value under half a step "
+                        "later, is dropped, warned and counted; an IMU's packets sharing "
                         "one stamp, or a clock coarser than its period, are restamped at its period, not dropped)")
     g.add_argument("--seed", type=int, default=0, help="simulator seed when --data is not given")
     g.add_argument("--duration", type=float, default=400.0, metavar="S",

@@ -927,6 +927,13 @@ STUCK_REPEATS = "repeats the row before it at its stamp, as every such row does 
 #: counts has 52 % differ, and its samples' stamps show it faster than its clock.
 STUCK_DIFFER_SHARE = 0.01
 REPAIRED_STAMP = "duplicated stamp (repair)"
+#: Reason under which a row repeating the row before it in every value a moment later is dropped (:func:`stamp_order`).
+NUDGED_COPY = "repeats the row before it in every value under half a step later (written twice)"
+#: A row repeating the row before it in every value less than this share of the stream's median step later is the
+#: same sample written twice with its stamp nudged (a logger writing a row again 1 ms later): no sample of the stream
+#: comes that early, and a stamp grid's step rounds to none at it (:func:`graphnav.io.loaders.grid_step`). A DVL
+#: repeating its last velocity, or an IMU at rest, repeats rows a whole step later.
+NUDGED_COPY_STEP_SHARE = 0.5
 
 
 def stamp_order(t: np.ndarray, rows: np.ndarray, lines: np.ndarray, source: str, field: str, repair: bool,
@@ -936,7 +943,10 @@ def stamp_order(t: np.ndarray, rows: np.ndarray, lines: np.ndarray, source: str,
     ``t`` (N,) s and its rows as read ``rows`` (N,k), ``lines`` their file lines.
 
     A row equal to an earlier one in its stamp and every value (NaN equal to NaN) is the same sample written
-    twice (a logger flushing its buffer again): dropped with a warning. An IMU's (``stream`` "imu") packets sharing
+    twice (a logger flushing its buffer again): dropped with a warning; so is a row repeating the row before it in
+    every value under half a step later, its stamp nudged (:func:`nudged_copies`: a stamp grid read without it); a
+    row of a stream other than an IMU stamped under a fifth of a step after the one before it with other values is
+    kept, warned about and doubted (:func:`say_close_samples`). An IMU's (``stream`` "imu") packets sharing
     one stamp (:func:`~graphnav.core.imu_timing.shared_stamp_packets`) or from a clock coarser than its period or
     about as coarse (:func:`~graphnav.core.imu_timing.quantised_clock`) are restamped at the period
     (:func:`~graphnav.core.imu_timing.restamp_shared_stamps`, noted in ``meta``); an IMU's row equal to the one
@@ -973,14 +983,20 @@ def stamp_order(t: np.ndarray, rows: np.ndarray, lines: np.ndarray, source: str,
     if copies.size:
         warnings.warn(f"{source}: {copies.size} row(s) repeating an earlier row exactly (same stamp and values) "
                       f"dropped, at line(s) {first_lines(lines[copies])}", RuntimeWarning, stacklevel=3)
+    nudged, moved = nudged_copies(t, rows, stream)
+    if nudged.size:
+        dropped[NUDGED_COPY] = int(nudged.size)
+        warnings.warn(f"{source}: {nudged.size} row(s) repeating the row before them in every value up to "
+                      f"{moved * 1e3:.3g} ms later (the same sample written twice, its stamp nudged) dropped, at "
+                      f"line(s) {first_lines(lines[nudged])}", RuntimeWarning, stacklevel=3)
+        copies = np.union1d(copies, nudged)
     kept = np.delete(np.arange(len(t)), copies)
     if stream == "imu":
         t[kept] = restamp_shared_stamps(read[kept], source, meta, imu_rate_hz)
     step = np.diff(t[kept])
     bad = np.flatnonzero(step <= 0)
     if not bad.size:
-        if stream == "imu":
-            _say_steps(read, t, kept, lines, source, field, meta)
+        _say_steps(read, t, kept, lines, source, field, meta, stream)
         return kept, dropped, t[kept]
     packets = stamped_in_packets(t[kept])
     if not repair:
@@ -993,9 +1009,67 @@ def stamp_order(t: np.ndarray, rows: np.ndarray, lines: np.ndarray, source: str,
     first = np.concatenate([[True], np.diff(t[kept]) > 0])
     warnings.warn(f"{source}: {int((~first).sum())} duplicated and {int((step < 0).sum())} out-of-order "
                   f"stamp(s) repaired (duplicates dropped, first kept; rows sorted){packets}", stacklevel=3)
-    if stream == "imu":
-        _say_steps(read, t, kept[first], lines, source, field, meta)
+    _say_steps(read, t, kept[first], lines, source, field, meta, stream)
     return kept[first], {**dropped, REPAIRED_STAMP: int((~first).sum())}, t[kept[first]]
+
+
+#: Reason under which rows of a stream other than an IMU stamped close after the row before them are doubted
+#: (:func:`say_close_samples`).
+CLOSE_SAMPLES = "stamped under a fifth of a step after the row before it, with other values (kept)"
+#: A row stamped less than this share of its stream's median step after the one before it is written for the same
+#: sample time (a DVL ping 1 ms after another: 0.001 of its step; two stamped together). A stamp grid allows it on
+#: the grid point of the row before (:func:`graphnav.io.loaders.grid_step`); a logger's burst (0.3 of a step) is no
+#: grid.
+SAME_POINT_SHARE = 0.2
+
+
+def say_close_samples(t: np.ndarray, lines: np.ndarray, source: str, stream: str, meta: dict | None) -> None:
+    """Warn about and count as doubted (with ``meta``) the rows of a stream's increasing stamps ``t`` (s; ``lines``
+    their file lines) stamped under :data:`SAME_POINT_SHARE` of the median step after the row before them: two
+    samples where the stream makes one (a row written twice with another reading, or two stamped together on
+    receipt), both kept, since nothing tells the right one. An IMU's steps are :func:`say_imu_stamp_steps`'."""
+    step = np.diff(t)
+    if meta is None or step.size < 2:
+        return
+    close = np.flatnonzero(step < SAME_POINT_SHARE * float(np.median(step))) + 1
+    if close.size:
+        later_ms = float(np.max(t[close] - t[close - 1])) * 1e3
+        say_doubted(meta, stream, source, f"{close.size} {stream} row(s) stamped under a fifth of the median step "
+                    f"({float(np.median(step)):.3g} s) after the row before them (up to {later_ms:.3g} ms later), with "
+                    f"other values: two samples where the stream makes one (a row written twice with another reading, "
+                    f"or two stamped together), both kept, at line(s) {first_lines(lines[close])}", CLOSE_SAMPLES,
+                    int(close.size), stacklevel=5)
+
+
+def nudged_copies(t: np.ndarray, rows: np.ndarray, stream: str = "") -> tuple[np.ndarray, float]:
+    """``(indexes, s)``: the indexes (file order, sorted) of the rows (``rows`` (N,k) as read, their stamps ``t``
+    (N,) s) that repeat the row before them in time in every value but the stamp, with a stamp later by less than
+    :data:`NUDGED_COPY_STEP_SHARE` of the median positive step: the same sample written twice, its stamp nudged. An
+    IMU's whose readings repeat from stamp to stamp as often (:func:`readings_repeat`: at rest with coarse counts) may
+    be samples jitter moved close: none. ``s``: the largest such nudge, s."""
+    t, rows = np.asarray(t, float), np.asarray(rows, float)
+    order = np.argsort(t, kind="stable")
+    step = np.diff(t[order])
+    positive = step[step > 0]
+    if positive.size < 2:
+        return np.zeros(0, int), 0.0
+    values = ~_stamp_columns(rows, t)
+    a, b = rows[order][:-1][:, values], rows[order][1:][:, values]
+    equal = np.all((a == b) | (np.isnan(a) & np.isnan(b)), axis=1)
+    short = (step > 0) & (step < NUDGED_COPY_STEP_SHARE * float(np.median(positive)))
+    copy = short & equal
+    if not copy.any() or stream == "imu" and readings_repeat(equal[step > 0], np.where(short, 0.0, step)[step > 0]):
+        return np.zeros(0, int), 0.0
+    return np.sort(order[1:][copy]), float(np.max(step[copy]))
+
+
+def _stamp_columns(rows: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """(k,) bool: the columns of ``rows`` (N,k) holding the stamps ``t`` (N,) s: those equal to them, else the first,
+    where the readers put the stamp as read (in a time unit other than s)."""
+    stamp = np.all(rows == t[:, None], axis=0)
+    if not stamp.any():
+        stamp[0] = True
+    return stamp
 
 
 def readings_repeat(equal: np.ndarray, step: np.ndarray) -> bool:
@@ -1064,10 +1138,14 @@ class RecentRepeats:
 
 
 def _say_steps(read: np.ndarray, t: np.ndarray, kept_rows: np.ndarray, lines: np.ndarray, source: str, field: str,
-               meta: dict | None) -> None:
+               meta: dict | None, stream: str) -> None:
     """:func:`say_imu_stamp_steps` of a file's ``kept_rows`` (indices, in time order) of its IMU stamps ``read``
     (s, as read) and ``t`` (s, as kept, restamped or not), for :func:`stamp_order`'s caller: on the stamps as read
-    where they never decrease, else (a repair sorted restamped rows) as kept."""
+    where they never decrease, else (a repair sorted restamped rows) as kept. Another ``stream``'s:
+    :func:`say_close_samples`."""
+    if stream != "imu":
+        say_close_samples(t[kept_rows], lines[kept_rows], source, stream, meta)
+        return
     as_read = read[kept_rows] if np.all(np.diff(read[kept_rows]) >= 0) else t[kept_rows]
     say_imu_stamp_steps(as_read, t[kept_rows], source, field, meta, lines=lines[kept_rows], stacklevel=4)
 

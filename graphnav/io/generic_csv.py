@@ -73,7 +73,8 @@ Bad input is reported with the file, the 1-based line and the column (:class:`gr
 An IMU, depth or reference row with an empty, NaN or infinite cell is refused (counted, warned with its line and
 column), as are reference rows whose velocity the vehicle cannot have or whose position jumps where its velocity
 does not, before the reference's unit and sign checks; an
-infinite DVL value is a beam that is not a measurement. A row written twice exactly is dropped (counted, warned);
+infinite DVL value is a beam that is not a measurement. A row written twice exactly, or again under half a step
+later with the same values, is dropped (counted, warned);
 a stamp on two different rows, or going back, is a DataError unless ``repair`` (``--repair-stamps``) drops the later
 row and sorts the rest (counted, warned), as for an A-KIT folder.
 """
@@ -237,7 +238,8 @@ def _read(root: Path, data_file: Path | None, spec: dict, stream: str, groups: d
           time_unit: str | None, tables: dict, meta: dict, repair: bool = False,
           t_imu: np.ndarray | None = None, imu_rate_hz: float | None = None) -> tuple[np.ndarray, dict, Path]:
     """Stamps (s, on the file's clock, increasing) and value groups of one stream (:func:`stamp_order`: rows
-    repeating an earlier one exactly dropped; with ``repair`` rows with a repeated stamp too, and sorted; each
+    repeating an earlier one exactly, or the row before it in every value under half a step later, dropped; with
+    ``repair`` rows with a repeated stamp too, and sorted; each
     counted). ``t_imu``: the IMU's stamps (s, the file's clock), which a declared time unit's span is checked
     against (:func:`graphnav.io.units.check_declared_time_span`); ``imu_rate_hz``: the configured IMU rate (Hz),
     which tells an IMU slower than its logger's clock from one losing samples."""

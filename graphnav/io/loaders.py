@@ -19,12 +19,14 @@ and 3 and the move of the GT to the IMU point, is the prepare step's (the read m
    ``(N-1)/N`` for a file of N rows (:func:`published_period_factor`). The factor comes from the stamp step,
    not from the rows present or the last stamp: a file with rows deleted (an outage cut out of the log, most of its
    rows) or cut short keeps the stamps it had in the whole file. Rows missing from the stamp grid are warned about and
-   noted. The stamps are scaled about the folder's clock origin (:func:`akit_stamp_origins`): 0 for the published
-   files, cut or trimmed at the start or not (their stamps stay on the grid that starts at 0), the first stamp of
-   a folder on a clock more than a day from zero (a Unix clock: scaled about zero, 1.7e9 s moved by 4e6 s), a
-   file's own first stamp when it starts on a clock days away. Stamps that are not such a grid (a logger's own, jittered
-   stamps; stamps already on the period; a grid at another rate) are kept as read, with a note, and a folder
-   with files of both kinds is warned about.
+   noted; a row written twice 1 ms later (the same values: dropped by :func:`read_csv`; other values: kept, warned
+   about and doubted there, and on the grid point of the row before it) leaves the grid read. The stamps are scaled
+   about the folder's clock origin (:func:`akit_stamp_origins`): 0 for the published files, cut or trimmed at the
+   start or not (their stamps stay on the grid that starts at 0), the first stamp of a folder on a clock more than a
+   day from zero (a Unix clock: scaled about zero, 1.7e9 s moved by 4e6 s), a file's own first stamp when it starts
+   on a clock days away. Stamps that are not such a grid (a logger's own, jittered stamps; stamps already on the
+   period; a grid at another rate) are kept as read, with a note, and a folder with files of both kinds is warned
+   about.
    Stamps that are not times (beyond :data:`graphnav.core.screening.MAX_STAMP_S`, or a lone stamp a day away
    from its neighbours) are refused with their rows and counted, before the order check.
 2. **IMU axes.** ``imu_axis_signs`` multiplies the raw x/y/z of both accelerometer and gyro. The
@@ -113,6 +115,7 @@ from graphnav.core.rotations import euler_to_C_b_n
 from graphnav.core.screening import (
     MAX_REFUSED_FRACTION,
     NO_BOTTOM_LOCK,
+    SAME_POINT_SHARE,
     ZERO_RESOLUTION,
     beams_out_of_range,
     check_refused_fraction,
@@ -237,7 +240,8 @@ def read_csv(path: str | Path, columns: tuple[str, ...], *, nan_ok: tuple[str, .
     beams file :func:`graphnav.io.export.write_akit` writes leaves an invalid beam empty; the A-KIT reader
     refuses an IMU or GT row with one or with an infinite value, :func:`graphnav.core.screening.not_finite`).
     The first column is the time stamp and must increase strictly (:func:`graphnav.core.screening.stamp_order`):
-    a row repeating an earlier one exactly is dropped with a warning; with ``repair=True`` duplicated
+    a row repeating an earlier one exactly, or the row before it in every value under half a step later, is dropped
+    with a warning; with ``repair=True`` duplicated
     stamps are dropped (first kept) and the rows sorted, with a warning. With ``meta`` (a mission's meta),
     the rows are counted as read for ``stream`` and rows whose stamp is not a time
     (:func:`graphnav.core.screening.stamp_outliers`: NaN or empty (with ``empty_is_nan``), inf, 1e300, a lone
@@ -526,24 +530,37 @@ GRID_TOLERANCE = 0.01
 
 def grid_step(t: np.ndarray) -> float | None:
     """The step (s) of the evenly spaced grid the stamps ``t`` (s) lie on, holes allowed, fitted through them
-    (rounded stamps give the grid's step), or None when they do not lie on one (:data:`GRID_TOLERANCE`)."""
+    (rounded stamps give the grid's step), or None when they do not lie on one (:data:`GRID_TOLERANCE`). A stamp
+    under :data:`SAME_POINT_SHARE` of a step after the one before it is written for that grid point (a row written
+    twice 1 ms later with other values, :func:`grid_points` tells them) and left out of the fit; one further off but
+    under a step (a logger's burst) leaves the stamps no grid."""
     t = np.asarray(t, dtype=float)
     if len(t) < 3:
         return None
-    guess = _step_guess(np.diff(t))
+    dt = np.diff(t)
+    guess = _step_guess(dt)
     if not guess > 0:
         return None
-    dk = np.round(np.diff(t) / guess)       # grid steps between neighbours: rounding errors do not add up
-    if np.any(dk < 1):
+    dk = np.round(dt / guess)       # grid steps between neighbours: rounding errors do not add up
+    again = dk < 1
+    if np.any(again & (dt >= SAME_POINT_SHARE * guess)):
         return None
     k = np.concatenate([[0.0], np.cumsum(dk)])
+    first = np.concatenate([[True], ~again])          # the first row on each grid point
     # fitted on the time since the first stamp: on Unix stamps (1.7e9 s) the fit through the absolute stamps is
     # off by 1e-9 of the step, as large as the smallest excess a published grid may have
-    since = t - t[0]
-    step, t0 = np.polyfit(k, since, 1)
-    if not step > 0 or np.max(np.abs(since - (t0 + k * step))) > GRID_TOLERANCE * step:
+    since = t[first] - t[0]
+    step, t0 = np.polyfit(k[first], since, 1)
+    if not step > 0 or np.max(np.abs(since - (t0 + k[first] * step))) > GRID_TOLERANCE * step:
         return None
     return float(step)
+
+
+def grid_points(t: np.ndarray, step: float) -> np.ndarray:
+    """(N,) int: the point of a grid of step ``step`` (s) each stamp ``t`` (N,) s lies on, in steps since the first
+    stamp (:func:`grid_step`; two stamps on one point: a row written twice)."""
+    t = np.asarray(t, dtype=float)
+    return np.round((t - t[0]) / step).astype(int)
 
 
 #: The median stamp difference spans a hole where the shortest difference is under this fraction of it (a step of
@@ -558,9 +575,11 @@ def _step_guess(dt: np.ndarray) -> float:
     :data:`STEP_GUESS_HOLE_RATIO` of it), the median of the differences within 1.5x the shortest. A DVL file with
     50-70 % of its rows removed was read as not the published grid and kept as read, 0.25 % slow against the rescaled
     IMU (1 s over 400 s). Not half the median: on a Unix clock (stamps 2.4e-7 s apart) the shortest difference, one
-    step, is often exactly half the median, two steps."""
+    step, is often exactly half the median, two steps. Differences under :data:`SAME_POINT_SHARE` of the median (two
+    stamps for one grid point) are left out of the shortest."""
     guess = float(np.median(dt))
-    shortest = float(np.min(dt))
+    apart = dt[dt >= SAME_POINT_SHARE * guess]
+    shortest = float(np.min(apart)) if apart.size else guess
     if 0.0 < shortest < STEP_GUESS_HOLE_RATIO * guess:
         return float(np.median(dt[dt < 1.5 * shortest]))
     return guess
@@ -647,8 +666,10 @@ def _rescale_akit_stamps(arrays: dict, files: dict, meta: dict) -> None:
     row count N (:func:`published_period_factor`, from the stamp step: rows deleted or a file cut short shift
     nothing), about the folder's clock origin (:func:`akit_stamp_origins`: 0 for the published files, trimmed or
     not; the first stamp of a folder on a Unix clock). Rows missing from a file's stamp grid are warned about and
-    noted in ``meta["streams"]``; a file whose stamps are not the published grid is left as read, and noted; a folder with
-    files of both kinds is warned about (their clocks may now disagree)."""
+    noted in ``meta["streams"]``; rows on the grid point of the row before them (written twice 1 ms later with other
+    values, which :func:`read_csv` warned about) are kept and rescaled with the grid; a file whose stamps are not the
+    published grid is left as read, and noted; a folder with files of both kinds is warned about (their clocks may
+    now disagree)."""
     present = {k: a for k, a in arrays.items() if a is not None and len(a) >= 2}
     origins = akit_stamp_origins({k: float(a[0, 0]) for k, a in present.items()},
                                  {k: float(a[-1, 0]) for k, a in present.items()})
@@ -661,8 +682,9 @@ def _rescale_akit_stamps(arrays: dict, files: dict, meta: dict) -> None:
             kept.append(k)
             continue
         rescaled.append(k)
-        on_grid = int(round((a[-1, 0] - a[0, 0]) / step)) + 1
-        missing = on_grid - len(a)
+        points = grid_points(a[:, 0], step)
+        # rows on the point of the row before them (read_csv warned: say_close_samples) fill no hole
+        missing = int(points[-1]) + 1 - np.unique(points).size
         if missing > 0:
             gap = int(np.argmax(np.diff(a[:, 0])))
             text = (f"{missing} row(s) missing from the {step:.6g} s stamp grid (largest hole after "
