@@ -687,3 +687,58 @@ def test_a_noisy_dvl_half_a_minute_late_on_a_longer_log_is_not_left_on_its_stamp
     np.testing.assert_allclose(out.t, sim.dvl.t, atol=1.0)
     assert "repeated_at_s" not in meta["clock_offsets"]["dvl"]
     assert meta["streams"]["dvl"]["doubted"] == {CLOCK_TAKEN_UNCLEAR: len(sim.dvl.t)}
+
+
+@pytest.mark.parametrize("name, start, outage", [("Trajectory1", 240.0, (23, 10)), ("Trajectory5", 120.0, (23, 10)),
+                                                 ("Trajectory13", 240.0, (23, 15))])
+def test_a_short_akit_piece_with_a_dvl_outage_is_placed_near_its_gt_offset_without_gt(akit_dir, tmp_path, name, start,
+                                                                                     outage):
+    """60 s A-KIT pieces without GT, 10-15 DVL pings dropped after the 23rd (an 11-16 s step): the clock fit's windows
+    were cut only at gaps over 20 s, one spanned the outage, whose ``int omega x v`` held the velocity through it, and
+    the DVL was placed +0.55, -0.58 and +17.1 s from the offset the GT gives the same piece without the outage
+    (Trajectory1: +1.48 s for +0.93). The clock windows are cut at steps over 5 s: the pieces load within 0.15 s of it.
+    """
+    from test_dvl_frame import _akit_crop_without_gt
+    # the piece's own offset, against its GT without the outage (with it the GT load went +17 s too)
+    with_gt = _akit_crop_without_gt(akit_dir / name, tmp_path / "gt", np.eye(3), 60.0, start, gt=True)
+    without = _akit_crop_without_gt(akit_dir / name, tmp_path / "nogt", np.eye(3), 60.0, start, dvl_outage=outage)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        truth = load_mission(with_gt).config.dvl_time_offset_s
+        got = load_mission(without)
+    assert np.max(np.diff(got.dvl.t)) > 10.0
+    assert got.config.dvl_time_offset_s == pytest.approx(truth, abs=0.15)
+
+
+def test_a_dvl_a_day_off_with_runs_of_pings_missing_finds_its_clock():
+    """A 600 s log whose DVL lost 45 % of its pings in runs of 5 (6 s steps, some runs meeting), a day off: windows
+    spanning the steps left the IMU explaining 0.02 of the velocity changes at best and no offset was found (the load
+    refused). Cut at steps over 5 s, the windows between the runs place it within 0.1 s."""
+    from test_dvl_frame import _simulated
+
+    from graphnav.core.mission import no_beams
+    m, t, v_b = _simulated(600.0)
+    lost = np.zeros(len(t), bool)
+    rng = np.random.default_rng(1)
+    while lost.mean() < 0.45:
+        first = rng.integers(0, len(t))
+        lost[first:first + 5] = True
+    dvl = DvlData(t[~lost] - 86400.0, *no_beams(int((~lost).sum())), v_b[~lost])
+    est = estimate_dvl_clock_offset(m.imu, dvl, m.config)
+    assert est.confident, est
+    assert est.offset_s == pytest.approx(86400.0, abs=0.1)
+
+
+def test_a_dvl_pinging_every_5_s_is_not_cut_at_every_ping():
+    """The clock windows are cut at steps over 5 s, but a DVL pinging every 5-6 s steps so at every ping: cut there,
+    it was refused as too broken up for its clock. It is cut only at steps over 1.5 of its periods, and found a day
+    off as with windows across its steps."""
+    from test_dvl_frame import _simulated
+
+    from graphnav.core.mission import no_beams
+    m, t, v_b = _simulated(600.0)
+    slow = np.arange(0, len(t), 5)
+    stamps = t[slow] + 1e-6 * np.random.default_rng(0).standard_normal(len(slow))    # a logger's jitter
+    est = estimate_dvl_clock_offset(m.imu, DvlData(stamps - 86400.0, *no_beams(len(slow)), v_b[slow]), m.config)
+    assert est.confident, est
+    assert est.offset_s == pytest.approx(86400.0, abs=0.15)

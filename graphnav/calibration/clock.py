@@ -4,10 +4,11 @@ The DVL measures the head's velocity in the body frame; what it changes by is wh
 ``v_b(t) = v0 + int (f_b + g_b - omega x v_b) dt`` (specific force plus the gravity the body sees). The
 gravity ``g_b`` is unknown without an attitude reference, but over a short window the gyro carries it
 exactly: ``g_b(t) = R(t)^T g0`` with R the gyro-integrated attitude. So, per window of :data:`WINDOW_S`
-of DVL pings, ``v0`` and ``g0`` are fitted by linear least squares and the residual measures how well the
-IMU explains the DVL at a candidate offset (against a straight line per window, the fit without the IMU:
-the *explained fraction*). Earth rate, gyro drift and accelerometer bias only enter through g0, refitted
-per window (the model: :mod:`graphnav.core.dvl_kinematics`, which the DVL checks share).
+of DVL pings (cut at steps between pings over :data:`~graphnav.core.dvl_kinematics.MAX_CLOCK_GAP_S`: a velocity held
+through an outage is none the vehicle had), ``v0`` and ``g0`` are fitted by linear least squares and the residual
+measures how well the IMU explains the DVL at a candidate offset (against a straight line per window, the fit
+without the IMU: the *explained fraction*). Earth rate, gyro drift and accelerometer bias only enter through g0,
+refitted per window (the model: :mod:`graphnav.core.dvl_kinematics`, which the DVL checks share).
 
 :func:`estimate_dvl_clock_offset` scores every offset at which the two logs share at least
 :data:`MIN_OVERLAP_S` and half the shorter log (the whole possible range: the spans need not overlap, the DVL
@@ -36,7 +37,7 @@ import numpy as np
 from scipy.optimize import minimize_scalar
 
 from graphnav.calibration.reference import _sigma_from_curvature
-from graphnav.core.dvl_kinematics import (COARSE_MAX_WINDOWS, MAX_WINDOW_GAP_S, MIN_OVERLAP_S, dvl_window_model,
+from graphnav.core.dvl_kinematics import (COARSE_MAX_WINDOWS, MAX_CLOCK_GAP_S, MIN_OVERLAP_S, dvl_window_model,
                                           gaps_said, offset_grid, search_overlap, still_velocity_said,
                                           with_enough_pings)
 from graphnav.core.errors import DataError
@@ -206,10 +207,11 @@ def estimate_dvl_clock_offset(imu, dvl, config=None, *, min_overlap_s: float = M
 
     Raises:
         DataError: fewer than two windows of usable pings (at every offset: pings broken up by outages over
-            :data:`~graphnav.core.dvl_kinematics.MAX_WINDOW_GAP_S`, the message names them), or logs too short to
+            :data:`~graphnav.core.dvl_kinematics.MAX_CLOCK_GAP_S`, the message names them), or logs too short to
             overlap ``min_overlap_s``.
     """
-    model, t_dvl = dvl_window_model(imu, dvl, config, lever_arm_b, window_pings, trim=True)
+    model, t_dvl = dvl_window_model(imu, dvl, config, lever_arm_b, window_pings, trim=True,
+                                    max_gap_s=MAX_CLOCK_GAP_S)
     ints, window = model.imu, model.window
     period = float(np.median(np.diff(t_dvl)))
     span_imu, span_dvl = ints.t[-1] - ints.t[0], t_dvl[-1] - t_dvl[0]
@@ -217,11 +219,11 @@ def estimate_dvl_clock_offset(imu, dvl, config=None, *, min_overlap_s: float = M
     h, coarse, best, second = _coarse_offset(model.thinned(COARSE_MAX_WINDOWS), ints.t, t_dvl, min_overlap_s,
                                              period, "DVL", dvl.source, search_s)
     if not np.isfinite(best):
-        broken = np.any(np.diff(t_dvl) > MAX_WINDOW_GAP_S)
+        broken = np.any(np.diff(t_dvl) > model.max_gap_s)
         raise DataError(f"the DVL's pings are too {'broken up' if broken else 'few'} to find its clock: "
-                        f"{gaps_said(t_dvl, window)}, and no offset keeping {min_overlap_s:.0f} s of overlap puts two "
-                        "of those windows on the IMU span: give the DVL clock's offset by hand (dvl_time_offset_s, s "
-                        "added to the DVL stamps) if it is known", dvl.source, field="t")
+                        f"{gaps_said(t_dvl, window, model.max_gap_s)}, and no offset keeping {min_overlap_s:.0f} s "
+                        "of overlap puts two of those windows on the IMU span: give the DVL clock's offset by hand "
+                        "(dvl_time_offset_s, s added to the DVL stamps) if it is known", dvl.source, field="t")
 
     # the same pings at every offset the refinement tries: one that left some out would fit the rest better. Two
     # grid steps each way: a ping entering the span moves the coarse scores by its share (a 60 s simulated log's
@@ -278,7 +280,7 @@ def _nearer_the_stamps(imu, dvl, config, min_overlap_s: float, far: ClockOffset)
                                          search_s=(-NEAR_REACH_S, NEAR_REACH_S))
     except DataError:
         return far
-    model, _ = dvl_window_model(imu, dvl, config, trim=True)
+    model, _ = dvl_window_model(imu, dvl, config, trim=True, max_gap_s=MAX_CLOCK_GAP_S)
     both = with_enough_pings(model.pings(far.offset_s) & model.pings(near.offset_s))
     if not model.score(far.offset_s, both)[0] - model.score(near.offset_s, both)[0] < OFF_STAMPS_MIN_GAP:
         return far
@@ -294,7 +296,7 @@ def explained_as_stamped(imu, dvl, config=None, within_s: float = 0.0) -> float:
     or the best such score within ``within_s`` (s) of them, on a grid of half a DVL period; NaN when the pings are too
     few to tell."""
     try:
-        model, t_dvl = dvl_window_model(imu, dvl, config, trim=True)
+        model, t_dvl = dvl_window_model(imu, dvl, config, trim=True, max_gap_s=MAX_CLOCK_GAP_S)
     except DataError:
         return float("nan")
     coarse = model.thinned(COARSE_MAX_WINDOWS)
