@@ -857,13 +857,15 @@ def mean_course(v: np.ndarray) -> float:
     return float(np.angle(mean)) if abs(mean) >= MIN_COURSE_RESULTANT else float("nan")
 
 
-def turn_against_imu(t_dvl: np.ndarray, v: np.ndarray, t_imu: np.ndarray, f_b: np.ndarray, omega_b: np.ndarray
-                     ) -> tuple[float, float]:
-    """``(yaw, sigma)``, rad: the turn about z of the body-frame velocity ``v`` (M,3, m/s, at ``t_dvl`` s on the IMU
-    clock) against what the IMU (``t_imu`` s, ``f_b`` m/s^2, ``omega_b`` rad/s) says of its changes, and its standard
-    error (:func:`graphnav.calibration.dvl_scale.yaw_sigma`: the clock model's windows, no lever arm); NaN under two
-    windows of pings."""
-    from graphnav.calibration.dvl_scale import yaw_sigma
+def turn_against_imu(t_dvl: np.ndarray, v: np.ndarray, t_imu: np.ndarray, f_b: np.ndarray, omega_b: np.ndarray,
+                     offsets=(0.0,)) -> tuple[float, float, float, float]:
+    """``(yaw, sigma, offset, r2)``: the turn about z (rad) of the body-frame velocity ``v`` (M,3, m/s, at ``t_dvl``
+    s) against what the IMU (``t_imu`` s, ``f_b`` m/s^2, ``omega_b`` rad/s) says of its changes, and its standard
+    error (rad, :func:`graphnav.calibration.dvl_scale.yaw_sigma`: the clock model's windows, no lever arm), at the DVL
+    offset among ``offsets`` (s, added to ``t_dvl``) where the fit explains most of the velocity's changes (``r2``,
+    :func:`~graphnav.calibration.dvl_scale.speed_scale`'s, which a turn of the velocity leaves as it is: both readings
+    of one velocity are judged at one offset); NaN under two windows of pings."""
+    from graphnav.calibration.dvl_scale import speed_scale, yaw_sigma
     from graphnav.core.dvl_kinematics import dvl_window_model
     from graphnav.core.mission import DvlData, ImuData, no_beams
     ok = np.all(np.isfinite(v), axis=1)
@@ -872,8 +874,11 @@ def turn_against_imu(t_dvl: np.ndarray, v: np.ndarray, t_imu: np.ndarray, f_b: n
         model, _ = dvl_window_model(ImuData(np.asarray(t_imu, float), np.asarray(f_b, float),
                                             np.asarray(omega_b, float)), DvlData(t, *no_beams(len(t)), v))
     except DataError:
-        return float("nan"), float("nan")
-    return yaw_sigma(model)
+        return (float("nan"),) * 4
+    offsets = np.atleast_1d(np.asarray(offsets, float))
+    r2 = [speed_scale(model, o, gapless=True)[1] for o in offsets]
+    best = int(np.argmax(np.nan_to_num(r2, nan=-1.0)))
+    return (*yaw_sigma(model, float(offsets[best])), float(offsets[best]), float(r2[best]))
 
 
 #: How far off the nose body-frame columns declared in an earth frame point once turned to body by the heading: forward
@@ -931,16 +936,26 @@ def _changes_against_imu(v: np.ndarray, v_b: np.ndarray, imu: tuple | None) -> t
     (:func:`turn_against_imu`) within :data:`DECLARED_EARTH_TURN_RAD` and :data:`DECLARED_EARTH_TURN_SIGMAS` sigmas
     or beyond: ``"body"`` where the columns as read meet the IMU's and, turned to body, do not; ``"earth"`` the
     other way round; None where the IMU does not tell (a vehicle holding its speed, DVL stamps off the IMU span)."""
+    from graphnav.calibration.dvl_scale import MIN_SCALE_R2, SCALE_OFFSETS_S
     if imu is None:
         return None, "the IMU did not judge it (the DVL stamps, with dvl_time_offset_s, off the IMU span)"
-    (yaw_b, sigma_b), (yaw_r, sigma_r) = (turn_against_imu(imu[0], x, *imu[1:]) for x in (v_b, v))
+    t_dvl, t_imu, f_b, omega_b, known = imu
+    # stamps not known to be on the IMU clock are judged where the changes fit best within 20 s, and only where that
+    # fit explains most of them: 8 s off, the turns at the stamps are noise with a small sigma (true NED straight legs
+    # refused), and a weak fit's best offset is noise too (body legs swinging 0.05 m/s kept as earth-fixed)
+    yaw_b, sigma_b, offset, r2 = turn_against_imu(t_dvl, v_b, t_imu, f_b, omega_b, 0.0 if known else SCALE_OFFSETS_S)
+    yaw_r, sigma_r, _, _ = turn_against_imu(t_dvl, v, t_imu, f_b, omega_b, offset)
     if not (np.isfinite(yaw_b) and np.isfinite(yaw_r)):
         return None, "the IMU did not judge it (under two windows of pings)"
+    if not (known or r2 >= MIN_SCALE_R2):
+        return None, (f"the IMU did not judge it (the DVL clock not declared 'imu', and at its best offset "
+                      f"{offset:+.1f} s the IMU's accelerations explain {r2:.2f} of the velocity's changes, "
+                      f"{MIN_SCALE_R2:g} needed)")
     floor, k = DECLARED_EARTH_TURN_RAD, DECLARED_EARTH_TURN_SIGMAS
     found = (f"its changes, turned to body, are turned {np.degrees(yaw_b):+.1f} +- {np.degrees(sigma_b):.1f} deg "
              f"about z from what the IMU's accelerations say, its columns as read {np.degrees(yaw_r):+.1f} +- "
              f"{np.degrees(sigma_r):.1f} deg (a velocity in its right frame: within {np.degrees(floor):g} deg and "
-             f"{k:g} sigmas)")
+             f"{k:g} sigmas){'' if known else f'; at the DVL offset {offset:+.1f} s, where they fit best'}")
     body_off, read_off = abs(yaw_b) - floor > k * sigma_b, abs(yaw_r) - floor > k * sigma_r
     if body_off != read_off:
         return ("body" if body_off else "earth"), found
@@ -991,7 +1006,7 @@ def columns_to_body(t_dvl: np.ndarray, v: np.ndarray, euler: np.ndarray | None, 
     # an earth frame is judged turned to body: a vehicle-fixed velocity declared earth-fixed, turned by the heading,
     # turns with the vehicle as an earth-fixed one declared body does
     v_judged = v_b if frame in EARTH_FRAMES else v
-    imu = None                  # (stamps on the IMU clock, its stamps, f_b, omega_b), for the straight-leg check
+    imu = None                  # (DVL stamps, IMU stamps, f_b, omega_b, on a known clock): the straight-leg check
     if on_the_imu_clock(t_dvl, t_imu):
         declared = {"unit": spec["velocity_unit"], "key": "csv_columns.dvl.velocity_unit"} \
             if spec.get("velocity_unit") else None
@@ -1000,7 +1015,7 @@ def columns_to_body(t_dvl: np.ndarray, v: np.ndarray, euler: np.ndarray | None, 
         given = on_the_imu_clock(t_dvl + given_offset_s, t_imu)
         t_at = t_dvl + given_offset_s if given else t_dvl
         known = spec.get("clock", "auto") == "imu" and given
-        imu = (t_at, t_imu, f_b, omega_b) if given and f_b is not None else None
+        imu = (t_at, t_imu, f_b, omega_b, known) if given and f_b is not None else None
         if frame in EARTH_FRAMES:
             said["columns_as_read"] = functools.partial(_vehicle_fixed, t_at, _unflagged(v), t_imu, f_b,
                                                         omega_b)
