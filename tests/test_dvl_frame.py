@@ -140,14 +140,15 @@ def test_a_true_ned_copy_whose_attitude_columns_are_wrong_is_told_to_check_them_
 
 
 def _slow_in_current(seed, speed, current, duration=300.0, noise=0.01, sideways=False, ned=False, tilt_deg=(2.0, 3.0),
-                     reverse_at=None, with_attitude=False, turn_deg_s=3.0, heading_deg=None):
+                     reverse_at=None, with_attitude=False, turn_deg_s=3.0, heading_deg=None, surge=0.05):
     """A level-ish vehicle at ``speed`` m/s through the water, turning at up to 3 deg/s, in a steady ``current`` m/s:
     the IMU (100 Hz, samples the increments over each step) and the DVL's body-frame velocity over the ground (1 Hz,
     ``noise`` m/s), exact kinematics; ``sideways``: moving along its y (a crabbing ROV); ``tilt_deg``: its roll and
     pitch swings; ``reverse_at``: the time (s) it turns from ``speed`` forward to as fast backward (over about 10 s).
     Returns (t_imu, f_b, omega_b, t_dvl, v_b), and with ``ned`` the same velocity in NED (M,3) too, and with
     ``with_attitude`` the vehicle's roll, pitch and heading at each ping (M,3, deg) last. ``turn_deg_s``: its turns'
-    largest rate; ``heading_deg``: its heading at the start (default random)."""
+    largest rate; ``heading_deg``: its heading at the start (default random); ``surge``: the amplitude of its speed's
+    swing over 53 s, m/s (0: a speed held)."""
     from scipy.spatial.transform import Rotation
 
     from graphnav.core.rotations import euler_to_C_b_n
@@ -170,7 +171,7 @@ def _slow_in_current(seed, speed, current, duration=300.0, noise=0.01, sideways=
                               np.deg2rad(tilt_deg[1]) * np.sin(2 * np.pi * t / 41 + ph[1]), heading + ph[2])
     C = attitude(t)
     u = speed if reverse_at is None else speed * np.tanh((reverse_at - t) / 5.0)
-    through_water = np.stack([u + 0.05 * np.sin(2 * np.pi * t / 53 + ph[3]), 0.0 * t, 0.0 * t], axis=1)
+    through_water = np.stack([u + surge * np.sin(2 * np.pi * t / 53 + ph[3]), 0.0 * t, 0.0 * t], axis=1)
     through_water = through_water[:, [1, 0, 2]] if sideways else through_water
     v_n = np.einsum("kij,kj->ki", C, through_water) + current * np.array([np.cos(ph[0]), np.sin(ph[0]), 0.0])
     omega_b = Rotation.from_matrix(np.swapaxes(C[:-1], 1, 2) @ C[1:]).as_rotvec() / dt
@@ -245,32 +246,41 @@ def test_a_slow_vehicle_s_body_frame_velocity_declared_ned_is_refused_or_warned_
     np.testing.assert_allclose(got.dvl.v_b, v_b, atol=1e-8)
 
 
-@pytest.mark.parametrize("heading_deg, later_refusal", [(137.0, "imu.csv"), (-117.0, "imu.csv"),
-                                                        (53.0, "FLU axes"), (-40.0, ""), (45.0, "")])
-def test_body_columns_declared_ned_on_a_vehicle_that_barely_turns_are_warned_by_where_they_point(
-        sim, tmp_path, heading_deg, later_refusal):
-    """Body-frame columns declared ``frame: ned`` on a vehicle at 2 m/s that barely turns (0.05 deg/s): the turn and
-    kinematics checks have nothing to judge by, and at headings -40 and +53 deg such columns (A-KIT Trajectory6 and 11,
-    130-190 s) loaded 1.4-1.8 m/s off without a warning. Turned to body by the heading they point off the nose by minus
-    the heading while the columns as read point forward: warned about naming csv_columns.dvl.frame and 'body', every
-    ping counted; not refused, since a true NED velocity of a vehicle in a strong cross-current or moving sideways
-    points so too (:func:`test_a_true_ned_velocity_of_an_rov_moving_sideways_on_a_straight_leg_loads_warned`). The
-    true NED copies load as before, without a warning."""
+def _straight_leg(sim, heading_deg, surge, seed=3, speed=2.0, sideways=False):
+    """A vehicle at ``speed`` m/s on a leg that barely turns (0.05 deg/s) on ``heading_deg``, its speed swinging
+    ``surge`` m/s (:func:`_slow_in_current`): the mission with its IMU, the ping stamps, its body and NED velocity, and
+    its attitude columns with the DVL entry declaring them (``frame`` to be set)."""
     m, _, _ = sim
-    t_imu, f_b, omega_b, t, v_b, v_n, euler = _slow_in_current(3, 2.0, 0.0, ned=True,
+    t_imu, f_b, omega_b, t, v_b, v_n, euler = _slow_in_current(seed, speed, 0.0, sideways=sideways, ned=True,
                                                                with_attitude=True, turn_deg_s=0.05,
-                                                               heading_deg=heading_deg)
+                                                               heading_deg=heading_deg, surge=surge)
     m_leg = dataclasses.replace(m, imu=dataclasses.replace(m.imu, t=t_imu, f_b=f_b, omega_b=omega_b))
     cols = {"roll": euler[:, 0], "pitch": euler[:, 1], "yaw": euler[:, 2]}
-    entry = {"frame": "ned", "euler": list(cols), "angle_unit": "deg"}
+    return (m_leg, t, None), v_b, v_n, cols, {"euler": list(cols), "angle_unit": "deg"}
+
+
+@pytest.mark.parametrize("heading_deg, later_refusal", [(137.0, "imu.csv"), (-117.0, "imu.csv"),
+                                                        (53.0, "FLU axes"), (-40.0, ""), (45.0, "")])
+def test_body_columns_declared_ned_on_a_straight_leg_at_a_held_speed_are_warned_by_where_they_point(
+        sim, tmp_path, heading_deg, later_refusal):
+    """Body-frame columns declared ``frame: ned`` on a vehicle at 2 m/s that barely turns (0.05 deg/s) and holds its
+    speed: the turn and kinematics checks have nothing to judge by, and at headings -40 and +53 deg such columns
+    (A-KIT Trajectory6 and 11, 130-190 s) loaded 1.4-1.8 m/s off without a warning. Turned to body by the heading they
+    point off the nose by minus the heading while the columns as read point forward: warned about naming
+    csv_columns.dvl.frame and 'body', every ping counted, and saying the IMU does not tell them apart (the speed held,
+    the velocity's changes are its noise); not refused, since a true NED velocity of a vehicle in a strong
+    cross-current or moving sideways points so too. The true NED copies load as before, without a warning."""
+    leg, v_b, v_n, cols, entry = _straight_leg(sim, heading_deg, 0.0)
+    entry = {"frame": "ned", **entry}
     off = -heading_deg
     said = (rf"DVL velocity declared in the ned frame, turned to body with the attitude columns \['roll', 'pitch', "
             rf"'yaw'\], points (sideways or backward|off forward): turned to body it points {re.escape(f'{off:+.0f}')} "
             r"deg about z from body x on average, while its columns as read point [+-]0 deg")
-    with pytest.warns(RuntimeWarning, match=said + r".*kept in the ned frame as declared; if the columns are in "
-                                                   r"the vehicle's frame, declare csv_columns\.dvl\.frame 'body'"):
+    with pytest.warns(RuntimeWarning, match=said + r".*the IMU does not tell them apart: .*kept in the ned frame as "
+                                                   r"declared; if the columns are in the vehicle's frame, declare "
+                                                   r"csv_columns\.dvl\.frame 'body'"):
         try:
-            got = _load(_folder(tmp_path, (m_leg, t, None), v_b, entry, cols))
+            got = _load(_folder(tmp_path, leg, v_b, entry, cols))
         except DataError as err:
             got = err
     if later_refusal:       # a later axes check's refusal says the frame first
@@ -278,43 +288,82 @@ def test_body_columns_declared_ned_on_a_vehicle_that_barely_turns_are_warned_by_
             later_refusal + r".*kept in its declared ned frame though, turned to body by its attitude columns, it "
             r"points off forward .*declare csv_columns\.dvl\.frame 'body' as that warning says", str(got)), got
     else:
-        assert got.meta["streams"]["dvl"]["doubted"][dvl_frame.DECLARED_EARTH_DOUBT] == len(t)
+        assert got.meta["streams"]["dvl"]["doubted"][dvl_frame.DECLARED_EARTH_DOUBT] == len(leg[1])
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        got = _load(_folder(tmp_path, (m_leg, t, None), v_n, entry, cols))
+        got = _load(_folder(tmp_path, leg, v_n, entry, cols))
     assert not [str(w.message) for w in caught if "dvl.csv" in str(w.message)]
     np.testing.assert_allclose(got.dvl.v_b, v_b, atol=1e-8)
 
 
-def test_a_true_ned_velocity_of_an_rov_moving_sideways_on_a_straight_leg_loads_warned(sim, tmp_path):
+@pytest.mark.parametrize("frame, heading_deg", [("ned", 137.0), ("ned", -117.0), ("ned", 53.0), ("ned", -40.0),
+                                                ("ned", 45.0), ("enu", 0.0), ("enu", -20.0)])
+def test_body_columns_declared_earth_fixed_on_a_straight_leg_where_the_speed_changes_are_refused(
+        sim, tmp_path, frame, heading_deg):
+    """Body-frame columns declared ``frame: ned`` (or ``enu``) on a vehicle at 2 m/s that barely turns, its speed
+    swinging 0.3 m/s: only warned about (and at -40 and +45 deg loaded 1.3-1.5 m/s off), since where they point a true
+    NED velocity of a vehicle crabbing points too. The IMU's accelerations tell them apart where the speed changes:
+    turned to body the velocity's changes are turned about z from the IMU's by about minus the heading (90 deg minus
+    it for ENU) +- 3.7 deg, the columns as read within 1 deg: refused naming the file, the columns,
+    csv_columns.dvl.frame and 'body'. The true copies load exactly, without a warning."""
+    leg, v_b, v_n, cols, entry = _straight_leg(sim, heading_deg, 0.3)
+    entry = {"frame": frame, **entry}
+    with pytest.raises(DataError, match=r"points off forward: .* its changes, turned to body, are turned ([+-]\d+\.\d) "
+                                        r"\+- (\d+\.\d) deg about z from what the IMU's accelerations say, its "
+                                        r"columns as read ([+-]\d+\.\d) \+- \d+\.\d deg .*: they are in the "
+                                        rf"vehicle's frame, not the {frame} frame: declare csv_columns\.dvl\.frame "
+                                        r"'body'") as err:
+        _load(_folder(tmp_path, leg, v_b, entry, cols))
+    assert "dvl.csv" in str(err.value) and "vx, vy, vz" in str(err.value)
+    turned, sigma, as_read = (float(x) for x in re.search(r"are turned ([+-]\d+\.\d) \+- (\d+\.\d) deg .* as "
+                                                          r"read ([+-]\d+\.\d)", str(err.value)).groups())
+    expected = (90.0 if frame == "enu" else 0.0) - heading_deg
+    assert abs(turned - expected) < 5.0 and sigma < 5.0 and abs(as_read) < 2.0
+    true = v_n if frame == "ned" else v_n[:, [1, 0, 2]] * [1, 1, -1]
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        got = _load(_folder(tmp_path, leg, true, entry, cols))
+    assert not [str(w.message) for w in caught if "dvl.csv" in str(w.message)]
+    np.testing.assert_allclose(got.dvl.v_b, v_b, atol=1e-8)
+
+
+@pytest.mark.parametrize("surge", [0.0, 0.3], ids=["speed held", "speed swinging"])
+def test_a_true_ned_velocity_of_an_rov_moving_sideways_on_a_straight_leg_loads(sim, tmp_path, surge):
     """A true NED velocity of an ROV moving sideways at 1.6 m/s (along its y, heading west, so north over the ground)
     on a leg that barely turns points forward as read and 90 deg off forward turned to body, as body columns declared
     ned on a vehicle heading -90 deg do: the straight-leg check first refused it (a true earth frame would need a
-    1.6 m/s current). It loads exactly, with the counted warning saying both readings."""
-    m, _, _ = sim
-    t_imu, f_b, omega_b, t, v_b, v_n, euler = _slow_in_current(2, 1.6, 0.0, sideways=True, ned=True,
-                                                               with_attitude=True, turn_deg_s=0.05,
-                                                               heading_deg=-90.0)
-    m_leg = dataclasses.replace(m, imu=dataclasses.replace(m.imu, t=t_imu, f_b=f_b, omega_b=omega_b))
-    cols = {"roll": euler[:, 0], "pitch": euler[:, 1], "yaw": euler[:, 2]}
-    with pytest.warns(RuntimeWarning, match=r"points off forward: .*or moving sideways or backward under its own "
-                                            r"thrust: kept in the ned frame as declared"):
-        got = _load(_folder(tmp_path, (m_leg, t, None), v_n, {"frame": "ned", "euler": list(cols),
-                                                              "angle_unit": "deg"}, cols))
+    1.6 m/s current). It loads exactly: its speed held, with the counted warning saying both readings and that the
+    IMU does not tell them apart; its speed swinging 0.3 m/s, the IMU's accelerations meet its changes turned to body
+    and not its columns as read (turned about 90 deg): kept with a note, no frame warning and nothing counted."""
+    leg, v_b, v_n, cols, entry = _straight_leg(sim, -90.0, surge, seed=2, speed=1.6, sideways=True)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        got = _load(_folder(tmp_path, leg, v_n, {"frame": "ned", **entry}, cols))
     np.testing.assert_allclose(got.dvl.v_b, v_b, atol=1e-8)
-    assert got.meta["streams"]["dvl"]["doubted"][dvl_frame.DECLARED_EARTH_DOUBT] == len(t)
+    said = [str(w.message) for w in caught if "points off forward" in str(w.message)]
+    doubted = got.meta["streams"]["dvl"].get("doubted", {})
+    if surge:
+        assert not said and dvl_frame.DECLARED_EARTH_DOUBT not in doubted
+        assert any(re.search(r"point off forward turned to body .* its columns as read [+-]\d+\.\d .* kept in the ned "
+                             r"frame, a vehicle crabbing or moving sideways", n)
+                   for n in got.meta["streams"]["dvl"]["notes"])
+    else:
+        assert len(said) == 1 and re.search(r"or moving sideways or backward under its own thrust; the IMU does not "
+                                            r"tell them apart: .*kept in the ned frame as declared", said[0])
+        assert doubted[dvl_frame.DECLARED_EARTH_DOUBT] == len(leg[1])
 
 
 @pytest.mark.parametrize("heading_deg", [0.0, -20.0])
 def test_body_columns_declared_enu_on_a_straight_leg_are_said_to_point_90_deg_minus_the_heading_off_the_nose(
         sim, tmp_path, heading_deg):
-    """Body-frame columns declared ``frame: enu`` on a vehicle at 2 m/s that barely turns: read as ENU the forward
-    columns point east, so turned to body by the heading they point 90 deg minus the heading off the nose (+90, +110
-    deg), not minus the heading as NED columns do, which the check said (-0, +20 deg: against its own +90, +110).
+    """Body-frame columns declared ``frame: enu`` on a vehicle at 2 m/s that barely turns, its speed held: read as ENU
+    the forward columns point east, so turned to body by the heading they point 90 deg minus the heading off the nose
+    (+90, +110 deg), not minus the heading as NED columns do, which the check said (-0, +20 deg: against its own +90,
+    +110).
     The true ENU copy loads as before, without a warning."""
     m, _, _ = sim
     t_imu, f_b, omega_b, t, v_b, v_n, euler = _slow_in_current(3, 2.0, 0.0, ned=True, with_attitude=True,
-                                                               turn_deg_s=0.05, heading_deg=heading_deg)
+                                                               turn_deg_s=0.05, heading_deg=heading_deg, surge=0.0)
     m_leg = dataclasses.replace(m, imu=dataclasses.replace(m.imu, t=t_imu, f_b=f_b, omega_b=omega_b))
     cols = {"roll": euler[:, 0], "pitch": euler[:, 1], "yaw": euler[:, 2]}
     entry = {"frame": "enu", "euler": list(cols), "angle_unit": "deg"}

@@ -46,7 +46,11 @@ columns: vehicle-fixed columns declared earth-fixed, turned by the heading, turn
 velocity read as body does. Where the body kinematics say so clearly (:data:`DECLARED_EARTH_REFUSED`) it is refused
 naming ``csv_columns.dvl.frame`` and ``body``; else kept with a counted warning (:data:`DECLARED_EARTH_DOUBT`).
 Where its columns as read are earth-fixed too (read as body they turn with the vehicle), the attitude columns are
-named instead: their unit or heading convention does not turn the velocity to body.
+named instead: their unit or heading convention does not turn the velocity to body. On a vehicle that barely turns,
+body columns declared earth-fixed point off the nose by about minus the heading once turned to body
+(:func:`check_declared_earth_course`), as a true earth-frame velocity of a vehicle crabbing or moving sideways does;
+where the speed changes the IMU tells them apart (the velocity's changes turned from its accelerations by about the
+heading, :func:`turn_against_imu`) and body columns are refused; where it holds, they are warned about and counted.
 """
 from __future__ import annotations
 
@@ -122,7 +126,7 @@ DECLARED_FRAME_DOUBT = "DVL velocity kept in its declared vehicle frame, though 
 #: Why DVL pings declared in an earth frame are counted as doubted where, turned to body by their attitude columns,
 #: the frame checks say they turn with the vehicle, but the body kinematics do not say so clearly
 #: (:data:`DECLARED_EARTH_REFUSED`), or where turned to body it points off forward while its columns as read point
-#: forward (:func:`check_declared_earth_course`): the columns may be in the vehicle's frame.
+#: forward and the IMU does not tell (:func:`check_declared_earth_course`): the columns may be in the vehicle's frame.
 DECLARED_EARTH_DOUBT = ("DVL velocity kept in its declared earth frame, though turned to body by its attitude it "
                         "turns with the vehicle or points off forward")
 #: :func:`kinematics_ratio` of a velocity declared in an earth frame, turned to body by its attitude columns and found
@@ -145,8 +149,22 @@ DECLARED_EARTH_FORWARD_RAD = np.deg2rad(10.0)
 #: ... warned about and counted (:data:`DECLARED_EARTH_DOUBT`) when it points further off forward than this once
 #: turned to body (an AUV moves mostly forward, :data:`~graphnav.calibration.dvl_scale.FORWARD_COURSE_RAD`; a true
 #: NED copy crabs this far only slower than the current it moves in, in a strong one, or moving sideways or backward
-#: under its own thrust, which a straight leg cannot tell from body columns: warned, never refused).
+#: under its own thrust, which where it points cannot tell from body columns: only the IMU then refuses it,
+#: :data:`DECLARED_EARTH_TURN_RAD`).
 DECLARED_EARTH_OFF_WARNED = np.deg2rad(30.0)
+#: A velocity declared in an earth frame that points off forward on a straight leg (:func:`check_declared_earth_course`)
+#: is refused where its changes, turned to body, are turned about z from what the IMU's accelerations say by more than
+#: this (rad) and :data:`DECLARED_EARTH_TURN_SIGMAS` sigmas beyond it, while its columns as read meet the IMU's within
+#: as much (:func:`turn_against_imu`): body columns turned by the heading are turned by about minus the heading, a true
+#: earth-frame velocity turned to body meets the IMU whichever way the vehicle moves over the ground (crabbing in a
+#: current, sideways). The allowance covers a DVL mounted and a heading column a few degrees off (a true NED copy of
+#: A-KIT, its heading column biased 5 deg: 5 deg). Measured (docs/decisions/dvl-frame.md), (|turn| - 10 deg) / sigma:
+#: true NED copies at most 1.04 (A-KIT pieces that barely turn 0.54, 1152 slow vehicles in currents 0.37, straight legs
+#: crabbing in cross currents or moving sideways 1.04); body copies declared ned up to 28 (A-KIT) and 59 (simulated),
+#: under 3 where the speed is held (sigma 100 deg and more) and on a 0.05 m/s swing of speed (sigma about 25 deg).
+DECLARED_EARTH_TURN_RAD = np.deg2rad(10.0)
+#: ... and the sigmas (:data:`DECLARED_EARTH_TURN_RAD`).
+DECLARED_EARTH_TURN_SIGMAS = 3.0
 #: The ``meta`` key set when a declared frame was kept against the frame checks (the frame's name): said once, not
 #: again by the prepare step's check.
 KEPT_AS_DECLARED = "dvl_frame_kept_as_declared"
@@ -839,20 +857,50 @@ def mean_course(v: np.ndarray) -> float:
     return float(np.angle(mean)) if abs(mean) >= MIN_COURSE_RESULTANT else float("nan")
 
 
+def turn_against_imu(t_dvl: np.ndarray, v: np.ndarray, t_imu: np.ndarray, f_b: np.ndarray, omega_b: np.ndarray,
+                     offsets=(0.0,)) -> tuple[float, float, float, float]:
+    """``(yaw, sigma, offset, r2)``: the turn about z (rad) of the body-frame velocity ``v`` (M,3, m/s, at ``t_dvl``
+    s) against what the IMU (``t_imu`` s, ``f_b`` m/s^2, ``omega_b`` rad/s) says of its changes, and its standard
+    error (rad, :func:`graphnav.calibration.dvl_scale.yaw_sigma`: the clock model's windows, no lever arm), at the DVL
+    offset among ``offsets`` (s, added to ``t_dvl``) where the fit explains most of the velocity's changes (``r2``,
+    :func:`~graphnav.calibration.dvl_scale.speed_scale`'s, which a turn of the velocity leaves as it is: both readings
+    of one velocity are judged at one offset); NaN under two windows of pings."""
+    from graphnav.calibration.dvl_scale import speed_scale, yaw_sigma
+    from graphnav.core.dvl_kinematics import dvl_window_model
+    from graphnav.core.mission import DvlData, ImuData, no_beams
+    ok = np.all(np.isfinite(v), axis=1)
+    t, v = np.asarray(t_dvl, float)[ok], np.asarray(v, float)[ok]
+    try:
+        model, _ = dvl_window_model(ImuData(np.asarray(t_imu, float), np.asarray(f_b, float),
+                                            np.asarray(omega_b, float)), DvlData(t, *no_beams(len(t)), v))
+    except DataError:
+        return (float("nan"),) * 4
+    offsets = np.atleast_1d(np.asarray(offsets, float))
+    r2 = [speed_scale(model, o, gapless=True)[1] for o in offsets]
+    best = int(np.argmax(np.nan_to_num(r2, nan=-1.0)))
+    return (*yaw_sigma(model, float(offsets[best])), float(offsets[best]), float(r2[best]))
+
+
 #: How far off the nose body-frame columns declared in an earth frame point once turned to body by the heading: forward
 #: columns read as NED point north, read as ENU east (90 deg clockwise of north).
 _COLUMNS_OFF_NOSE = {"ned": "minus the heading", "enu": "90 deg minus the heading"}
 
 
 def check_declared_earth_course(v: np.ndarray, v_b: np.ndarray, heading: np.ndarray, source: str, fields: list[str],
-                                said: dict, meta: dict) -> None:
+                                said: dict, meta: dict, imu: tuple | None = None) -> None:
     """A velocity declared in an earth frame (``v``, M,3, m/s as read) whose columns as read point forward
     (:data:`DECLARED_EARTH_FORWARD_RAD`) while turned to body (``v_b``, M,3, m/s) it points off forward
     (:data:`DECLARED_EARTH_OFF_WARNED`): body columns turned by the ``heading`` column (M, rad), which a vehicle that
-    barely turns gives the turn checks nothing to judge by: warned about and counted (:data:`DECLARED_EARTH_DOUBT`),
-    naming ``csv_columns.dvl.frame`` and 'body' and the current a true earth frame would need, never refused (a true
-    earth-frame velocity of a vehicle in a strong cross-current, or an ROV moving sideways or backward, points so on
-    a straight leg too); a log already kept as declared against the frame checks is not warned about again."""
+    barely turns gives the turn checks nothing to judge by. Where the vehicle changes speed the IMU judges it
+    (``imu``: the pings' stamps on the IMU clock, s, and the IMU's stamps, s, specific force, m/s^2, and rates,
+    rad/s): turned to body, its changes are turned from the IMU's by more than :data:`DECLARED_EARTH_TURN_RAD` and
+    :data:`DECLARED_EARTH_TURN_SIGMAS` sigmas, while the columns as read meet the IMU's within as much
+    (:func:`turn_against_imu`): refused naming ``csv_columns.dvl.frame`` and 'body'; the other way round (a true
+    earth-frame velocity of a vehicle in a strong cross-current, or of an ROV moving sideways or backward, which points
+    so on a straight leg too) kept with a note. Where the IMU does not tell (a vehicle holding its speed, DVL stamps
+    off the IMU span) warned about and counted (:data:`DECLARED_EARTH_DOUBT`), naming the key and 'body'
+    and the current a true earth frame would need. A log already kept as declared against the frame checks is not
+    warned about again."""
     as_read, turned = mean_course(v), mean_course(v_b)
     if not (abs(as_read) <= DECLARED_EARTH_FORWARD_RAD and abs(turned) > DECLARED_EARTH_OFF_WARNED):
         return                              # NaN (pointing no one way): nothing to say
@@ -864,13 +912,54 @@ def check_declared_earth_course(v: np.ndarray, v_b: np.ndarray, heading: np.ndar
     why = (f"turned to body it points {np.degrees(turned):+.0f} deg about z from body x on average, while its columns "
            f"as read point {np.degrees(as_read):+.0f} deg (an AUV moves mostly forward): body-frame columns turned by "
            f"the heading column (mean {np.degrees(mean_heading):+.0f} deg) point off the nose by about "
-           f"{_COLUMNS_OFF_NOSE[said['frame']]}; a true {said['frame'].upper()} velocity points so only for a vehicle "
-           f"crabbing {abs(np.degrees(turned)):.0f} deg on a course within "
-           f"{np.degrees(DECLARED_EARTH_FORWARD_RAD):g} deg of its columns' x, in a current of at least "
-           f"{current:.2f} m/s (at {speed:.2f} m/s over the ground), or moving sideways or backward under its own "
-           "thrust")
+           f"{_COLUMNS_OFF_NOSE[said['frame']]}")
+    verdict, changes = _changes_against_imu(v, v_b, imu)
+    if verdict == "body":
+        raise DataError(f"DVL velocity {said['said']} points off forward: {why}; {changes}: they are in the vehicle's "
+                        f"frame, not the {said['frame']} frame: {said['declare']}", source, field=", ".join(fields))
+    if verdict == "earth":
+        from graphnav.core.streams import add_note
+        add_note(meta, "dvl", f"velocity columns {fields} point off forward turned to body ({why}), but {changes}: "
+                              f"kept in the {said['frame']} frame, a vehicle crabbing or moving sideways")
+        return
+    why += (f"; a true {said['frame'].upper()} velocity points so only for a vehicle crabbing "
+            f"{abs(np.degrees(turned)):.0f} deg on a course within {np.degrees(DECLARED_EARTH_FORWARD_RAD):g} deg of "
+            f"its columns' x, in a current of at least {current:.2f} m/s (at {speed:.2f} m/s over the ground), or "
+            f"moving sideways or backward under its own thrust; {changes}")
     _keep_as_declared(meta, source, fields, len(v), said, f"points off forward: {why}")
     meta[KEPT_POINTING_OFF] = True
+
+
+def _changes_against_imu(v: np.ndarray, v_b: np.ndarray, imu: tuple | None) -> tuple[str | None, str]:
+    """``(verdict, text)``: what the IMU says of a declared earth-frame velocity that points off forward (arguments as
+    :func:`check_declared_earth_course`'s), each reading's changes turned about z from the IMU's
+    (:func:`turn_against_imu`) within :data:`DECLARED_EARTH_TURN_RAD` and :data:`DECLARED_EARTH_TURN_SIGMAS` sigmas
+    or beyond: ``"body"`` where the columns as read meet the IMU's and, turned to body, do not; ``"earth"`` the
+    other way round; None where the IMU does not tell (a vehicle holding its speed, DVL stamps off the IMU span)."""
+    from graphnav.calibration.dvl_scale import MIN_SCALE_R2, SCALE_OFFSETS_S
+    if imu is None:
+        return None, "the IMU did not judge it (the DVL stamps, with dvl_time_offset_s, off the IMU span)"
+    t_dvl, t_imu, f_b, omega_b, known = imu
+    # stamps not known to be on the IMU clock are judged where the changes fit best within 20 s, and only where that
+    # fit explains most of them: 8 s off, the turns at the stamps are noise with a small sigma (true NED straight legs
+    # refused), and a weak fit's best offset is noise too (body legs swinging 0.05 m/s kept as earth-fixed)
+    yaw_b, sigma_b, offset, r2 = turn_against_imu(t_dvl, v_b, t_imu, f_b, omega_b, 0.0 if known else SCALE_OFFSETS_S)
+    yaw_r, sigma_r, _, _ = turn_against_imu(t_dvl, v, t_imu, f_b, omega_b, offset)
+    if not (np.isfinite(yaw_b) and np.isfinite(yaw_r)):
+        return None, "the IMU did not judge it (under two windows of pings)"
+    if not (known or r2 >= MIN_SCALE_R2):
+        return None, (f"the IMU did not judge it (the DVL clock not declared 'imu', and at its best offset "
+                      f"{offset:+.1f} s the IMU's accelerations explain {r2:.2f} of the velocity's changes, "
+                      f"{MIN_SCALE_R2:g} needed)")
+    floor, k = DECLARED_EARTH_TURN_RAD, DECLARED_EARTH_TURN_SIGMAS
+    found = (f"its changes, turned to body, are turned {np.degrees(yaw_b):+.1f} +- {np.degrees(sigma_b):.1f} deg "
+             f"about z from what the IMU's accelerations say, its columns as read {np.degrees(yaw_r):+.1f} +- "
+             f"{np.degrees(sigma_r):.1f} deg (a velocity in its right frame: within {np.degrees(floor):g} deg and "
+             f"{k:g} sigmas){'' if known else f'; at the DVL offset {offset:+.1f} s, where they fit best'}")
+    body_off, read_off = abs(yaw_b) - floor > k * sigma_b, abs(yaw_r) - floor > k * sigma_r
+    if body_off != read_off:
+        return ("body" if body_off else "earth"), found
+    return None, f"the IMU does not tell them apart: {found}"
 
 
 def columns_to_body(t_dvl: np.ndarray, v: np.ndarray, euler: np.ndarray | None, spec: dict, C_d_b: np.ndarray,
@@ -896,8 +985,9 @@ def columns_to_body(t_dvl: np.ndarray, v: np.ndarray, euler: np.ndarray | None, 
     Raises:
         ConfigError: an earth frame without attitude columns or their unit.
         DataError: a vehicle-frame velocity that turns with the vehicle; an earth-frame one that, turned to body,
-            clearly does (:func:`refuse_unless_declared`). One that points off forward while its columns as read point
-            forward is warned about and counted, not refused (:func:`check_declared_earth_course`).
+            clearly does (:func:`refuse_unless_declared`); one that points off forward while its columns as read point
+            forward, where the IMU tells its changes are the columns' as read (:func:`check_declared_earth_course`;
+            warned about and counted where it does not tell).
     """
     from graphnav.core.streams import add_note
     from graphnav.core.timeseries import on_the_imu_clock
@@ -916,6 +1006,7 @@ def columns_to_body(t_dvl: np.ndarray, v: np.ndarray, euler: np.ndarray | None, 
     # an earth frame is judged turned to body: a vehicle-fixed velocity declared earth-fixed, turned by the heading,
     # turns with the vehicle as an earth-fixed one declared body does
     v_judged = v_b if frame in EARTH_FRAMES else v
+    imu = None                  # (DVL stamps, IMU stamps, f_b, omega_b, on a known clock): the straight-leg check
     if on_the_imu_clock(t_dvl, t_imu):
         declared = {"unit": spec["velocity_unit"], "key": "csv_columns.dvl.velocity_unit"} \
             if spec.get("velocity_unit") else None
@@ -924,6 +1015,7 @@ def columns_to_body(t_dvl: np.ndarray, v: np.ndarray, euler: np.ndarray | None, 
         given = on_the_imu_clock(t_dvl + given_offset_s, t_imu)
         t_at = t_dvl + given_offset_s if given else t_dvl
         known = spec.get("clock", "auto") == "imu" and given
+        imu = (t_at, t_imu, f_b, omega_b, known) if given and f_b is not None else None
         if frame in EARTH_FRAMES:
             said["columns_as_read"] = functools.partial(_vehicle_fixed, t_at, _unflagged(v), t_imu, f_b,
                                                         omega_b)
@@ -936,7 +1028,7 @@ def columns_to_body(t_dvl: np.ndarray, v: np.ndarray, euler: np.ndarray | None, 
     if frame == "body":
         return v
     if frame in EARTH_FRAMES:
-        check_declared_earth_course(_unflagged(v), v_b, euler[:, 2], source, fields, said, meta)
+        check_declared_earth_course(_unflagged(v), v_b, euler[:, 2], source, fields, said, meta, imu)
         add_note(meta, "dvl", f"velocity columns {fields} in the {frame} frame turned to the DVL frame with the "
                               f"attitude columns {list(spec['euler'])}, then to body by dvl.C_d_b")
     else:
