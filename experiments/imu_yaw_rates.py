@@ -19,7 +19,8 @@ import warnings
 import numpy as np
 
 from graphnav.core.dvl_kinematics import dvl_window_model
-from graphnav.calibration.dvl_scale import IMU_YAW_MIN_Q, IMU_YAWS_DEG, SCALE_OFFSETS_S, imu_yaw_fit, turn_about_z
+from graphnav.calibration.dvl_scale import (IMU_YAW_MIN_Q, IMU_YAWS_DEG, SCALE_OFFSETS_S, imu_turned_models,
+                                           imu_yaw_fit, turn_about_z)
 from graphnav.core.errors import DataError
 from graphnav.io.paths import akit_trajectories
 
@@ -71,7 +72,8 @@ def main(argv=None) -> int:
                         except DataError:
                             rows.append((kind, w, turn, None, None, None))
                             continue
-                        rows.append((kind, w, turn, *imu_yaw_fit(model, turned, dvl, m.config, offsets)))
+                        rows.append((kind, w, turn, *imu_yaw_fit(imu_turned_models(model, turned, dvl, m.config),
+                                                                        offsets)))
     for kind in dict.fromkeys(r[0] for r in rows):
         for w in args.windows:
             sel = [r for r in rows if r[0] == kind and r[1] == w]

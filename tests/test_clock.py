@@ -742,3 +742,27 @@ def test_a_dvl_pinging_every_5_s_is_not_cut_at_every_ping():
     est = estimate_dvl_clock_offset(m.imu, DvlData(stamps - 86400.0, *no_beams(len(slow)), v_b[slow]), m.config)
     assert est.confident, est
     assert est.offset_s == pytest.approx(86400.0, abs=0.15)
+
+
+def test_the_clock_search_builds_its_window_model_once_per_load(tmp_path, monkeypatch):
+    """The seed-36 log above 5 s late runs every step of the search on the IMU span: the near search, the search
+    beyond it, the stamps' score and the offset nearer the stamps. Each built the DVL's window model again (the IMU's
+    integrals on their grid and the DVL's windows): five times per load. The search builds it once and scores it throughout,
+    with the same offset found."""
+    from graphnav.calibration import clock
+    built = []
+
+    def counted(*args, **kwargs):
+        built.append(kwargs.get("trim"))
+        return dvl_window_model(*args, **kwargs)
+    dvl_window_model = clock.dvl_window_model
+    monkeypatch.setattr(clock, "dvl_window_model", counted)
+    cfg = SensorConfig()
+    cfg.dvl = dataclasses.replace(cfg.dvl, beam_noise_std=0.035)
+    sim = simulate_mission(200.0, seed=36, config=cfg)
+    config = _beams_log(sim, tmp_path / "late", 5.0, "auto")
+    with pytest.warns(RuntimeWarning, match=r"DVL clock offset -5\.\d+ s"):
+        m = load_mission(config.parent, config)
+    assert built == [True]
+    np.testing.assert_allclose(m.dvl.t, sim.dvl.t, atol=1.0)
+    assert m.meta["clock_offsets"]["dvl"]["repeated_at_s"] == pytest.approx(78.1, abs=1.0)

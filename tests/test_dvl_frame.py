@@ -1936,3 +1936,25 @@ def test_a_level_vehicle_whose_dvl_points_backward_is_not_told_its_imu_y_judged_
     assert "judged against the DVL instead" not in notes
     assert re.search(r"its y axis sign not judged against the DVL either: .* it points \+180 deg from body x", notes)
     assert got.meta["imu_axis_signs"]["decided"] is False
+
+
+def test_a_level_vehicle_builds_each_turn_of_its_imu_once_against_the_dvl(sim, tmp_path, monkeypatch):
+    """The level vehicle above with its IMU y negated: the IMU-turn check builds the DVL's model against the IMU turned
+    90, 180 and 270 deg about z, and the y check built the best turn's (180 deg) again. Each is built once, and the
+    log is still refused naming the y axis against that turn."""
+    from graphnav.calibration import dvl_scale
+    built = []
+
+    def counted(*args, transform=None, **kwargs):
+        if transform is not None:
+            built.append(tuple(np.round(transform, 9).ravel()))
+        return dvl_window_model(*args, transform=transform, **kwargs)
+    dvl_window_model = dvl_scale.dvl_window_model
+    monkeypatch.setattr(dvl_scale, "dvl_window_model", counted)
+    m, _, _ = sim
+    t_imu, f_b, omega_b, t, v_b = _slow_in_current(1, 0.4, 0.0, tilt_deg=(0.0, 0.0))
+    level = _with_imu_y_negated(m, t_imu, f_b, omega_b)
+    with pytest.raises(DataError, match=r"the IMU's y axis is negated .* than with the IMU turned 180 deg about z"):
+        _load(_folder(tmp_path, (level, t, None), v_b))
+    turns = [tuple(np.round(dvl_scale.turn_about_z(yaw).T, 9).ravel()) for yaw in dvl_scale.IMU_YAWS_DEG]
+    assert [built.count(turn) for turn in turns] == [1, 1, 1]

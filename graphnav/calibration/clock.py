@@ -187,9 +187,20 @@ class ClockOffset:
 # ------------------------------------------------------------------------------------------------
 # the estimate
 # ------------------------------------------------------------------------------------------------
+def clock_model(imu, dvl, config=None, lever_arm_b=None, window_pings: int | None = None):
+    """The window model the clock search scores offsets on (:func:`~graphnav.core.dvl_kinematics.dvl_window_model`,
+    windows trimmed at the IMU's ends; arguments as :func:`estimate_dvl_clock_offset`'s). Built once per search: the
+    near and far searches, the stamps' score and the nearer offset's all score this one (``model``).
+
+    Raises:
+        DataError: fewer than two windows of pings with a velocity.
+    """
+    return dvl_window_model(imu, dvl, config, lever_arm_b, window_pings, trim=True, max_gap_s=MAX_CLOCK_GAP_S)[0]
+
+
 def estimate_dvl_clock_offset(imu, dvl, config=None, *, min_overlap_s: float = MIN_OVERLAP_S,
                               lever_arm_b=None, window_pings: int | None = None,
-                              search_s: tuple[float, float] | None = None) -> ClockOffset:
+                              search_s: tuple[float, float] | None = None, model=None) -> ClockOffset:
     """The offset to add to the DVL stamps to put them on the IMU clock, from the data (module docstring).
 
     Args:
@@ -201,6 +212,8 @@ def estimate_dvl_clock_offset(imu, dvl, config=None, *, min_overlap_s: float = M
         lever_arm_b: DVL position relative to the IMU, m (default: the config's, else zero).
         window_pings: pings per window of the gravity fit (default :data:`WINDOW_S` worth).
         search_s: (lo, hi) offsets to search, s; default: every offset leaving ``min_overlap_s`` of overlap.
+        model: the :func:`clock_model` of these ``imu``, ``dvl`` and ``config`` when built already (its lever arm and
+            window are then the ones used).
 
     Returns:
         A :class:`ClockOffset`; check ``confident`` (:func:`align_stream_clocks` refuses or warns on it).
@@ -210,9 +223,8 @@ def estimate_dvl_clock_offset(imu, dvl, config=None, *, min_overlap_s: float = M
             :data:`~graphnav.core.dvl_kinematics.MAX_CLOCK_GAP_S`, the message names them), or logs too short to
             overlap ``min_overlap_s``.
     """
-    model, t_dvl = dvl_window_model(imu, dvl, config, lever_arm_b, window_pings, trim=True,
-                                    max_gap_s=MAX_CLOCK_GAP_S)
-    ints, window = model.imu, model.window
+    model = clock_model(imu, dvl, config, lever_arm_b, window_pings) if model is None else model
+    ints, window, t_dvl = model.imu, model.window, model.t_pings
     period = float(np.median(np.diff(t_dvl)))
     span_imu, span_dvl = ints.t[-1] - ints.t[0], t_dvl[-1] - t_dvl[0]
     min_overlap_s = search_overlap(span_imu, span_dvl, window * period, min_overlap_s)
@@ -246,23 +258,24 @@ def estimate_dvl_clock_offset(imu, dvl, config=None, *, min_overlap_s: float = M
     return ClockOffset(x, sigma, max(explained, best), max(second, 0.0), coarse, rms, overlap, pings)
 
 
-def _beyond_the_near_search(imu, dvl, config, min_overlap_s: float, near: ClockOffset) -> ClockOffset:
+def _beyond_the_near_search(imu, dvl, config, min_overlap_s: float, near: ClockOffset, model) -> ClockOffset:
     """For a DVL on the IMU span: ``near``, its offset within +-:data:`NEAR_SEARCH_S`, unless that is not confident or
     the IMU explains the DVL's velocity changes poorly at its stamps (:func:`explained_as_stamped` under
     :data:`MIN_PEAK`). Then every offset keeping the overlap is searched, and a confident offset found there replaces
     ``near`` when it is not confident, or explains more further than :data:`PEAK_EXCLUSION_S` from it. A DVL 600 s
     late on a 5400 s log (89 % of its pings on the IMU span) found nothing near and was loaded 600 s off; 400 s late,
-    the near search took -264 s (0.24 explained against 0.83 at -400 s)."""
-    if near.confident and not explained_as_stamped(imu, dvl, config) < MIN_PEAK:
+    the near search took -264 s (0.24 explained against 0.83 at -400 s). ``model``: the search's
+    (:func:`clock_model`)."""
+    if near.confident and not explained_as_stamped(imu, dvl, config, model=model) < MIN_PEAK:
         return near
-    far = estimate_dvl_clock_offset(imu, dvl, config, min_overlap_s=min_overlap_s)
+    far = estimate_dvl_clock_offset(imu, dvl, config, min_overlap_s=min_overlap_s, model=model)
     if far.confident and (not near.confident or far.peak > near.peak
                           and abs(far.offset_s - near.offset_s) > PEAK_EXCLUSION_S):
         return far
     return near
 
 
-def _nearer_the_stamps(imu, dvl, config, min_overlap_s: float, far: ClockOffset) -> ClockOffset:
+def _nearer_the_stamps(imu, dvl, config, min_overlap_s: float, far: ClockOffset, model) -> ClockOffset:
     """``far``, a DVL's best offset taken off its stamps under the clear peak (:attr:`ClockOffset.off_its_stamps` and
     ``confident``), unless it lies further than :data:`NEAR_REACH_S` from them and explains less than
     :data:`OFF_STAMPS_MIN_GAP` more than the best offset within that reach, the two scored on the pings both keep on the
@@ -272,15 +285,14 @@ def _nearer_the_stamps(imu, dvl, config, min_overlap_s: float, far: ClockOffset)
     30-90 s late (seeds 31, 34, 39; 0.03-0.04 m/s beams), kept on their stamps before, 49-95 s off their clock. A 200 s
     log with 0.035 m/s beams whose DVL lagged 5-10 s was moved 83 s off its clock, to a manoeuvre repeated there
     (0.148 explained over the 116 pings on the IMU span there, 0.097 at the right offset over 193; 0.151 and 0.148 over
-    the 116 both keep)."""
+    the 116 both keep). ``model``: the search's (:func:`clock_model`)."""
     if not (far.confident and far.off_its_stamps and abs(far.offset_s) > NEAR_REACH_S):
         return far
     try:
         near = estimate_dvl_clock_offset(imu, dvl, config, min_overlap_s=min_overlap_s,
-                                         search_s=(-NEAR_REACH_S, NEAR_REACH_S))
+                                         search_s=(-NEAR_REACH_S, NEAR_REACH_S), model=model)
     except DataError:
         return far
-    model, _ = dvl_window_model(imu, dvl, config, trim=True, max_gap_s=MAX_CLOCK_GAP_S)
     both = with_enough_pings(model.pings(far.offset_s) & model.pings(near.offset_s))
     if not model.score(far.offset_s, both)[0] - model.score(near.offset_s, both)[0] < OFF_STAMPS_MIN_GAP:
         return far
@@ -290,17 +302,19 @@ def _nearer_the_stamps(imu, dvl, config, min_overlap_s: float, far: ClockOffset)
     return nearer if nearer.confident else far
 
 
-def explained_as_stamped(imu, dvl, config=None, within_s: float = 0.0) -> float:
+def explained_as_stamped(imu, dvl, config=None, within_s: float = 0.0, model=None) -> float:
     """The share of the DVL's velocity changes the IMU explains at the DVL stamps as they stand (the clock search's
     score at offset 0, over its coarse windows; 1 = all, below :data:`MIN_PEAK` a clock search finds no offset by),
     or the best such score within ``within_s`` (s) of them, on a grid of half a DVL period; NaN when the pings are too
-    few to tell."""
-    try:
-        model, t_dvl = dvl_window_model(imu, dvl, config, trim=True, max_gap_s=MAX_CLOCK_GAP_S)
-    except DataError:
-        return float("nan")
+    few to tell. ``model``: the :func:`clock_model` of ``imu``, ``dvl`` and ``config`` when built already (then
+    scored instead of them)."""
+    if model is None:
+        try:
+            model = clock_model(imu, dvl, config)
+        except DataError:
+            return float("nan")
     coarse = model.thinned(COARSE_MAX_WINDOWS)
-    steps = int(np.ceil(within_s / (0.5 * float(np.median(np.diff(t_dvl)))))) if within_s > 0 else 0
+    steps = int(np.ceil(within_s / (0.5 * float(np.median(np.diff(model.t_pings)))))) if within_s > 0 else 0
     scores = [coarse.score(o)[0] for o in np.linspace(-within_s, within_s, 2 * steps + 1)]
     return float(np.nanmax(scores)) if np.any(np.isfinite(scores)) else float("nan")
 
@@ -389,15 +403,16 @@ def align_stream_clocks(imu, dvl, depth=None, meta: dict | None = None, config=N
     meta = {} if meta is None else meta
     inside = on_the_imu_clock(dvl.t, imu.t)
     try:
+        model = clock_model(imu, dvl, config)
         near = (-NEAR_SEARCH_S, NEAR_SEARCH_S) if inside else None
-        est = estimate_dvl_clock_offset(imu, dvl, config, min_overlap_s=min_overlap_s, search_s=near)
+        est = estimate_dvl_clock_offset(imu, dvl, config, min_overlap_s=min_overlap_s, search_s=near, model=model)
         if inside:
-            est = _beyond_the_near_search(imu, dvl, config, min_overlap_s, est)
+            est = _beyond_the_near_search(imu, dvl, config, min_overlap_s, est, model)
             if not est.confident:
                 # a DVL a second or two late (its fine time offset) explains less at its stamps than near them: a
                 # manoeuvre repeated 82 s on was taken over the stamps of a clean 200 s log 1.5 s late
-                est = dataclasses.replace(est, stamped=explained_as_stamped(imu, dvl, config, FINE_OFFSET_S))
-                est = _nearer_the_stamps(imu, dvl, config, min_overlap_s, est)
+                est = dataclasses.replace(est, stamped=explained_as_stamped(imu, dvl, config, FINE_OFFSET_S, model))
+                est = _nearer_the_stamps(imu, dvl, config, min_overlap_s, est, model)
     except DataError:
         if inside:
             add_note(meta, "dvl", "clock offset not estimated (too few pings or too short a log); stamps kept")

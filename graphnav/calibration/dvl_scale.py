@@ -282,22 +282,30 @@ def turn_about_z(yaw_deg: float) -> np.ndarray:
     return np.array([[np.cos(a), -np.sin(a), 0.0], [np.sin(a), np.cos(a), 0.0], [0.0, 0.0, 1.0]]).round(12)
 
 
-def imu_yaw_fit(read, imu, dvl, config, offsets=(0.0,)) -> tuple[float, int, float]:
-    """``(q, yaw, q_next)``: how much better the clock model ``read`` (the DVL as read on the IMU,
-    :func:`~graphnav.core.dvl_kinematics.dvl_window_model`) fits with the IMU turned ``yaw`` deg about z (the best of
-    :data:`IMU_YAWS_DEG`): the squared residual as read minus turned, over the noise variance (the smaller squared
-    residual per residual); > 0 the turn fits better. Each is read at the DVL offset among ``offsets`` (s) where it
-    fits best, every offset over the same windows (:func:`_searchable`): where the clock is known no closer than they
-    span, the offset is no evidence for a turn (a turn of 180 deg half a sway period late fits a steady vehicle's
-    velocity changes as well as the axes as read on time).
-    ``q_next``: the same of the next best turn against the best. A turn is tried by turning the DVL velocity and lever
-    arm into the turned IMU's axes; the accelerometer's horizontal axes and the gyro's roll and pitch rates then meet
-    the velocity as mounted."""
+def imu_turned_models(read, imu, dvl, config) -> dict:
+    """The clock model ``read`` (the DVL as read on the IMU, :func:`~graphnav.core.dvl_kinematics.dvl_window_model`)
+    keyed 0, and keyed by each turn of :data:`IMU_YAWS_DEG` (deg) the same DVL against the IMU turned that much about
+    z, on ``read``'s IMU integrals: the DVL velocity and lever arm are turned into the turned IMU's axes (the
+    accelerometer's horizontal axes and the gyro's roll and pitch rates then meet the velocity as mounted).
+    :func:`imu_yaw_fit` scores them all, and :func:`y_negated_fit` the one as read and the best turn again: each is
+    built once."""
     models = {0: read}
     for yaw in IMU_YAWS_DEG:
         T = turn_about_z(yaw).T
         models[yaw], _ = dvl_window_model(imu, dvl, config, lever_arm_b=T @ config.dvl.lever_arm_b, transform=T,
                                           ints=read.imu)
+    return models
+
+
+def imu_yaw_fit(models: dict, offsets=(0.0,)) -> tuple[float, int, float]:
+    """``(q, yaw, q_next)``: how much better the clock model as read (``models``: :func:`imu_turned_models`'s) fits
+    with the IMU turned ``yaw`` deg about z (the best of :data:`IMU_YAWS_DEG`): the squared residual as read minus
+    turned, over the noise variance (the smaller squared residual per residual); > 0 the turn fits better. Each is
+    read at the DVL offset among ``offsets`` (s) where it fits best, every offset over the same windows
+    (:func:`_searchable`): where the clock is known no closer than they span, the offset is no evidence for a turn (a
+    turn of 180 deg half a sway period late fits a steady vehicle's velocity changes as well as the axes as read on
+    time).
+    ``q_next``: the same of the next best turn against the best."""
     fits = _best_fits(models, offsets)
     yaw, nxt = sorted(IMU_YAWS_DEG, key=lambda y: fits[y][0])[:2]
     return _evidence(fits[0], fits[yaw]), yaw, _evidence(fits[nxt], fits[yaw])
@@ -313,16 +321,15 @@ def applied_axis_signs(config) -> np.ndarray:
     return np.ones(3) if config.imu_axis_signs is None else np.asarray(config.imu_axis_signs, float)
 
 
-def y_negated_fit(read, imu, dvl, config, yaw: int, offsets=(0.0,)) -> tuple[float, float]:
-    """``(q_read, q_turn)``: how much better (noise variances, as :func:`imu_yaw_fit`'s) the clock model ``read`` fits
-    with the IMU's y negated on the accelerometer and gyro (:data:`Y_NEGATED`) than as read, and than with the IMU
-    turned ``yaw`` deg about z. A y negated on both sensors is no turn (it makes the axes left-handed) and no motion
-    explains it: the centripetal acceleration in turns reads on the wrong side, which a turn of 180 deg puts right
-    (and the acceleration along x wrong), so a vehicle that turns more than it speeds up fits it turned."""
-    T = turn_about_z(yaw).T
-    turned, _ = dvl_window_model(imu, dvl, config, lever_arm_b=T @ config.dvl.lever_arm_b, transform=T, ints=read.imu)
+def y_negated_fit(models: dict, imu, dvl, config, yaw: int, offsets=(0.0,)) -> tuple[float, float]:
+    """``(q_read, q_turn)``: how much better (noise variances, as :func:`imu_yaw_fit`'s) the clock model as read
+    (``models``: :func:`imu_turned_models`'s) fits with the IMU's y negated on the accelerometer and gyro
+    (:data:`Y_NEGATED`) than as read, and than with the IMU turned ``yaw`` deg about z (its model there). A y negated
+    on both sensors is no turn (it makes the axes left-handed) and no motion explains it: the centripetal acceleration
+    in turns reads on the wrong side, which a turn of 180 deg puts right (and the acceleration along x wrong), so a
+    vehicle that turns more than it speeds up fits it turned."""
     negated = dataclasses.replace(imu, f_b=imu.f_b * Y_NEGATED, omega_b=imu.omega_b * Y_NEGATED)
-    fits = _best_fits({0: read, yaw: turned, "y": dvl_window_model(negated, dvl, config)[0]}, offsets)
+    fits = _best_fits({0: models[0], yaw: models[yaw], "y": dvl_window_model(negated, dvl, config)[0]}, offsets)
     return _evidence(fits[0], fits["y"]), _evidence(fits[yaw], fits["y"])
 
 
@@ -437,7 +444,8 @@ def check_imu_yaw(imu, dvl, config, meta: dict, frame: dict, model=None, offsets
         add_note(meta, "imu", f"its mounting about z not checked against the DVL ({exc.message}): a turned IMU is "
                               "seen then only against a reference attitude")
         return
-    q, yaw, q_next = imu_yaw_fit(model, imu, dvl, config, offsets)
+    models = imu_turned_models(model, imu, dvl, config)
+    q, yaw, q_next = imu_yaw_fit(models, offsets)
     undecided = meta.get("imu_axis_signs", {}).get("decided") is False
     or_y = ""
     if q >= IMU_YAW_MIN_Q or undecided:
@@ -445,7 +453,7 @@ def check_imu_yaw(imu, dvl, config, meta: dict, frame: dict, model=None, offsets
         # each fit at its own best offset over the whole search: the one offset the velocity's scale fit chose for
         # the IMU as read is where its wrong y fits best (20 s off on a level vehicle at 1.5 m/s), favouring the turn
         wide = offsets if carried else np.union1d(offsets, SCALE_OFFSETS_S)
-        or_y = check_imu_y(imu, config, meta, frame, judge_imu_y(model, imu, dvl, config, yaw, wide), undecided)
+        or_y = check_imu_y(imu, config, meta, frame, judge_imu_y(models, imu, dvl, config, yaw, wide), undecided)
     if carried and q >= IMU_YAW_MIN_Q:
         raise _unless_declared_earth(meta, _either_turned(imu, dvl, frame, q, yaw, float("nan"), carried), or_y)
     course = _course(dvl, config) if q >= IMU_YAW_MIN_Q else 0.0
@@ -505,15 +513,16 @@ class ImuYJudgement:
     course: float = float("nan")
 
 
-def judge_imu_y(model, imu, dvl, config, yaw: int, offsets=(0.0,)) -> ImuYJudgement:
+def judge_imu_y(models: dict, imu, dvl, config, yaw: int, offsets=(0.0,)) -> ImuYJudgement:
     """Whether the DVL velocity fits the IMU better with its y negated on the accelerometer and gyro than as read
     and than turned ``yaw`` deg about z (the best turn; :func:`y_negated_fit`, each fit at its best of ``offsets``,
-    s, on the clock model ``model``), better as read, or neither by :data:`IMU_YAW_MIN_Q` noise variances: a y axis
-    with its sign flipped, which the tilt kinematics of a level vehicle cannot see and a turn of 180 deg mimics.
+    s, on the clock models ``models``, :func:`imu_turned_models`'s), better as read, or neither by
+    :data:`IMU_YAW_MIN_Q` noise variances: a y axis with its sign flipped, which the tilt kinematics of a level vehicle
+    cannot see and a turn of 180 deg mimics.
     Measured (docs/decisions/units-clocks-axes.md): y negated fits level vehicles 1.8e3-3.0e3 better than as read and
     5.3e2-4.5e3 than the best turn, simulated missions and the ten A-KIT trajectories 1.5e5 and more; as read it fits
     1.8e3 worse or more; with the IMU or the DVL turned 180 deg, 5.3e2 worse than the turn or more."""
-    q_read, q_turn = y_negated_fit(model, imu, dvl, config, yaw, offsets)
+    q_read, q_turn = y_negated_fit(models, imu, dvl, config, yaw, offsets)
     if q_read >= IMU_YAW_MIN_Q:
         if q_turn >= IMU_YAW_MIN_Q:
             return ImuYJudgement(True, "", q_read, q_turn, yaw)

@@ -844,13 +844,14 @@ def _check_declared_clock(mission: Mission, dvl: DvlData, given: float | None) -
     over every offset keeping the overlap. A DVL 60 s late on a 600 s log was loaded 60 s off, its pings outside the
     IMU span only counted. A log whose velocity changes hide in the DVL noise (-0.07..0.13 explained on simulated
     600 s ones with the default beams) pays the search and is left as declared: no offset is clear."""
-    from graphnav.calibration.clock import (MIN_PEAK, PEAK_EXCLUSION_S, estimate_dvl_clock_offset,
+    from graphnav.calibration.clock import (MIN_PEAK, PEAK_EXCLUSION_S, clock_model, estimate_dvl_clock_offset,
                                             explained_as_stamped)
-    here = explained_as_stamped(mission.imu, dvl, mission.config)
-    if not here < MIN_PEAK:
-        return
     try:
-        est = estimate_dvl_clock_offset(mission.imu, dvl, mission.config)
+        model = clock_model(mission.imu, dvl, mission.config)       # the stamps' score and the search share it
+        here = explained_as_stamped(mission.imu, dvl, mission.config, model=model)
+        if not here < MIN_PEAK:
+            return
+        est = estimate_dvl_clock_offset(mission.imu, dvl, mission.config, model=model)
     except DataError:
         return
     if not (est.confident and abs(est.offset_s) > PEAK_EXCLUSION_S):

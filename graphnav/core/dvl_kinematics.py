@@ -198,11 +198,14 @@ class _WindowModel:
     (``trim`` True, the clock search's: a window reaching past the IMU's end by a ping keeps its other pings, so
     offsets a few seconds apart score nearly the same pings and none wins by leaving out a window it explains
     badly). No window spans a gap of more than ``max_gap_s`` (:data:`MAX_WINDOW_GAP_S`; the clock search's
-    :data:`MAX_CLOCK_GAP_S`); the padding of a window cut short by one (``real`` False) is fitted at no offset."""
+    :data:`MAX_CLOCK_GAP_S`); the padding of a window cut short by one (``real`` False) is fitted at no offset.
+    ``t_pings``: the stamps of every ping it was built from (s), in the windows or not (the clock search's span,
+    period and gaps)."""
 
     def __init__(self, imu: ImuIntegrals, t_dvl: np.ndarray, v: np.ndarray, lever_arm_b: np.ndarray,
                  window: int, trim: bool = False, max_gap_s: float = MAX_WINDOW_GAP_S):
         self.imu, self.lever, self.trim, self.max_gap_s = imu, lever_arm_b, trim, max_gap_s
+        self.t_pings = t_dvl
         rows, self.real = window_rows(t_dvl, window, max_gap_s)
         self.t, self.v = t_dvl[rows], v[rows]
         self.v_mid = 0.5 * (self.v[:, 1:] + self.v[:, :-1])
@@ -222,6 +225,7 @@ class _WindowModel:
         out = object.__new__(_WindowModel)
         out.imu, out.lever, out.window, out.trim, out.max_gap_s = (self.imu, self.lever, self.window, self.trim,
                                                                    self.max_gap_s)
+        out.t_pings = self.t_pings
         out.t, out.v, out.v_mid, out.sse_null_w = self.t[keep], self.v[keep], self.v_mid[keep], self.sse_null_w[keep]
         out.real = self.real[keep]
         return out
