@@ -1,7 +1,7 @@
-"""How far the DVL velocity's turn about z from the IMU's axes (:func:`graphnav.calibration.dvl_scale.speed_scale`)
-strays from the truth against its sigma (:func:`~graphnav.calibration.dvl_scale.yaw_sigma`), and what the small-turn
+"""How far the DVL velocity's turn about z from the IMU's axes (:func:`graphnav.core.dvl_kinematics.speed_scale`)
+strays from the truth against its sigma (:func:`~graphnav.core.dvl_kinematics.yaw_sigma`), and what the small-turn
 warning (:data:`~graphnav.calibration.dvl_scale.MIN_YAW_RAD`, :data:`~graphnav.calibration.dvl_scale.YAW_SIGMAS`,
-r^2 at least :data:`~graphnav.calibration.dvl_scale.MIN_SCALE_R2`) says: the shared A-KIT trajectories whole and in
+r^2 at least :data:`~graphnav.core.dvl_kinematics.MIN_SCALE_R2`) says: the shared A-KIT trajectories whole and in
 pieces, simulated missions (navigation, tactical, MEMS; 0.042 and 0.01 m/s beam noise; seeds 0-2; 150 and 600 s
 whole, the 600 s ones in pieces), each as read and with its DVL velocity turned.
 
@@ -21,6 +21,7 @@ import warnings
 import numpy as np
 
 from graphnav.calibration import dvl_scale as ds
+from graphnav.core import dvl_kinematics as dk
 from graphnav.core.errors import DataError
 from graphnav.io.paths import akit_trajectories
 
@@ -53,7 +54,7 @@ def _fit(imu, dvl, config, turn: float):
         model = ds.judging_model(imu, dvl, config, transform=ds.turn_about_z(turn))
     except DataError:
         return None
-    yaw, sigma, r2 = ds._turn_at(model)
+    yaw, sigma, r2 = dk.turn_at(model)
     return r2, np.degrees(yaw), np.degrees(sigma)
 
 
@@ -79,7 +80,7 @@ def main(argv=None) -> int:
                             table[name, length, turn].append(fit)
     for (name, length, turn), fits in sorted(table.items()):
         r2, yaw, sigma = (np.array(x) for x in zip(*fits))
-        ok = r2 >= ds.MIN_SCALE_R2
+        ok = r2 >= dk.MIN_SCALE_R2
         beyond = ok & (np.abs(yaw) > ds.YAW_SIGMAS * sigma)
         big = beyond & (np.abs(yaw) > np.degrees(ds.MAX_YAW_RAD))
         small = beyond & (np.abs(yaw) <= np.degrees(ds.MAX_YAW_RAD)) & (np.abs(yaw) > np.degrees(ds.MIN_YAW_RAD))

@@ -8,7 +8,7 @@ Prints per source and window length: the largest q as read and the smallest turn
 noise variances), how many of each the check refuses, cannot judge (|q| under IMU_YAW_MIN_Q) or passes, turned
 windows where it names a wrong turn alone, and windows too short for the clock model (two 20 s windows of pings).
 With ``--search`` each fit is read at its best DVL offset within +- 20 s, as the check does where the speed-scale
-fit cannot fix the DVL's clock (``dvl_scale.SCALE_OFFSETS_S``); else at the stamps as they are.
+fit cannot fix the DVL's clock (``dvl_kinematics.SCALE_OFFSETS_S``); else at the stamps as they are.
 """
 from __future__ import annotations
 

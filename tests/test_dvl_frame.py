@@ -1222,13 +1222,13 @@ def test_a_log_whose_dvl_is_turned_a_few_degrees_is_warned_about_beyond_its_sigm
     and turned 5 deg (under 3 sigmas) nothing is said; turned 8 deg it is warned about, naming the file, its columns
     and what to declare, and its pings are counted as doubted."""
     from graphnav.calibration import dvl_scale
-    from graphnav.core.dvl_kinematics import dvl_window_model
+    from graphnav.core.dvl_kinematics import dvl_window_model, yaw_sigma
     from graphnav.core.mission import DvlData
     m, t, v = sim
     for deg, warned in ((0.0, False), (5.0, False), (8.0, True)):
         dvl = DvlData(t, np.full((len(t), 4), np.nan), np.zeros((len(t), 4), bool),
                       v @ dvl_scale.turn_about_z(deg).T, source="dvl.csv")
-        yaw, sigma = dvl_scale.yaw_sigma(dvl_window_model(m.imu, dvl, m.config)[0])
+        yaw, sigma = yaw_sigma(dvl_window_model(m.imu, dvl, m.config)[0])
         assert np.degrees(yaw) == pytest.approx(deg + 0.4, abs=0.1) and np.degrees(sigma) == pytest.approx(1.9, abs=0.1)
         meta = {}
         with warnings.catch_warnings(record=True) as caught:

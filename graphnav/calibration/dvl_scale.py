@@ -21,8 +21,8 @@ import numpy as np
 
 from graphnav.calibration.axes import TURN_ADVICE, mounting_text
 from graphnav.calibration.clock import COARSE_MAX_WINDOWS
-from graphnav.core.dvl_kinematics import (WINDOW_S, centred, dvl_velocity_b, dvl_window_model, imu_integrals,
-                                          without_window_fit)
+from graphnav.core.dvl_kinematics import (MIN_SCALE_R2, SCALE_OFFSETS_S, WINDOW_S, centred, dvl_velocity_b,
+                                          dvl_window_model, imu_integrals, speed_scale, turn_at, turn_fit)
 from graphnav.core.errors import DataError
 from graphnav.core.streams import add_note, count_doubted, say_doubted
 from graphnav.io.dvl_frame import (CARRIED, EARTH_FRAMES, KEPT_AS_DECLARED, KEPT_POINTING_OFF, check_not_earth_frame,
@@ -30,12 +30,6 @@ from graphnav.io.dvl_frame import (CARRIED, EARTH_FRAMES, KEPT_AS_DECLARED, KEPT
 from graphnav.io.units import (AKIT_DVL_FIXES, DECLARE_DVL_FIXES, GYRO_UNJUDGED, check_gyro_against_reference,
                                gyro_scale_found, other_unit_factors, unit_fix)
 
-#: Lowest share of the variance the horizontal fit must explain for its scale and yaw to tell anything (r^2, the
-#: best within +- SCALE_SEARCH_S): 0.976-0.999 on nine of the ten A-KIT trajectories, 0.61 on the steady
-#: Trajectory13; simulated missions 0.05-0.39 with the default 0.042 m/s beams, 0.58-0.905 with 0.01 m/s and a
-#: navigation or tactical IMU, 0.41-0.80 with a MEMS one, whose noisy integrals pull the scale to 0.75-0.87 and the
-#: yaw up to 19 deg: those are not judged.
-MIN_SCALE_R2 = 0.9
 #: Scales outside (1 / this, this) are refused: a unit read wrong, not a calibration (the geometric middle of 1
 #: and knots' 1.944; the nine: 0.996-1.016 in m/s, 1.937-1.976 in knots).
 MAX_SCALE_ERROR = 1.4
@@ -64,13 +58,6 @@ MAX_YAW_RAD = np.deg2rad(10.0)
 #: floor keeps a residual the sigma does not see (a hull's sideslip, a lever arm) from being warned about.
 MIN_YAW_RAD = np.deg2rad(2.0)
 YAW_SIGMAS = 3.0
-#: The DVL's turn about z (:data:`MAX_YAW_RAD`, :data:`MIN_YAW_RAD`) is fitted over the windows with no step between
-#: pings beyond this (s): across an outage the model's ``int omega x v`` holds the velocity at the gap's ends for the
-#: whole gap, which in a turn leaves a sideways residual the fit reads as a turn. 60 s A-KIT pieces without GT with one
-#: 10-ping outage (an 11 s step; two windows left, one across it) fitted turns of -24/-22/+11/-12 deg and were refused
-#: (Trajectory10 and 2 from 0 s, 1 and 6 from 240 s; the same pieces whole: -9/-15/-0.3/+0.3 deg, under 3 windows'
-#: sigmas or 10 deg). A dropped ping or two (steps of 2-3 s) stay in.
-MAX_TURN_GAP_S = 5.0
 #: Why DVL pings read despite a velocity turned a few degrees from the IMU's axes are counted.
 YAW_DOUBT = "DVL velocity turned a few degrees about z from the IMU's axes"
 #: Why DVL pings read despite a velocity turned about z beyond :data:`MAX_YAW_RAD` (its own fit) or by a quarter turn
@@ -96,11 +83,6 @@ GT_MIN_LEVER_M = 0.3
 GT_LEVER_MIN_SPAN_S = 300.0
 #: Why DVL pings read despite a lever arm the GT's body velocity disagrees with are counted.
 GT_LEVER_DOUBT = "DVL lever arm off from where the ground truth's body velocity puts the DVL"
-#: The scale is taken at the offset within +- this of the DVL stamps where its fit is best, s (knots misled the
-#: clock search by 7.5 s on Trajectory1's first 200 s).
-SCALE_SEARCH_S = 20.0
-#: The DVL offsets (s) the scale and gyro fits take their best of: every 0.5 s within +- SCALE_SEARCH_S.
-SCALE_OFFSETS_S = np.arange(-SCALE_SEARCH_S, SCALE_SEARCH_S + 0.25, 0.5)
 #: Where a long log's IMU-turn fits search the DVL offset, each model's best is found on
 #: :data:`~graphnav.core.dvl_kinematics.COARSE_MAX_WINDOWS` windows spread over it and all its windows are scored within
 #: this of there, s (:func:`imu_yaw_fit`).
@@ -164,80 +146,6 @@ def judging_model(imu, dvl, config, **kwargs):
                         f"its noise ({noise:.2g} m/s; {MIN_VELOCITY_CHANGE_MPS:g} m/s or {MIN_CHANGE_OVER_NOISE:g}x "
                         "its noise needed: a vehicle holding its speed and turn)", dvl.source, field="velocity")
     return model
-
-
-def speed_scale(model, offset: float = 0.0, gapless: bool = False) -> tuple[float, float, float]:
-    """``(scale, r2, yaw)``: the DVL's horizontal velocity over the one the IMU's integrals say (1 for a right unit),
-    the share of the variance the fit explains, and the angle the DVL's horizontal axes are turned by (rad, about
-    z: a mounting yaw turns the velocity, it does not scale it), over the model's windows inside the IMU span at
-    ``offset`` s (NaN without two; ``gapless``: only those with no step beyond :data:`MAX_TURN_GAP_S`). The
-    horizontal parts are complex numbers ``x + iy``: the DVL side regressed on the IMU side gives
-    ``scale * exp(i yaw)``."""
-    sides = _horizontal_sides(model, offset, gapless)
-    if sides is None:
-        return float("nan"), float("nan"), float("nan")
-    a, b = sides
-    ab, aa, bb = np.vdot(b, a), float(np.vdot(a, a).real), float(np.vdot(b, b).real)
-    return abs(ab) / max(bb, 1e-300), abs(ab) ** 2 / max(aa * bb, 1e-300), float(np.angle(ab))
-
-
-def _horizontal_sides(model, offset: float, gapless: bool = False):
-    """``(a, b)``, complex (win, pings): the DVL side and the IMU side of the clock model's windows inside the IMU
-    span at ``offset`` s (``gapless``: only those with no step beyond :data:`MAX_TURN_GAP_S`), each window's ``v0``
-    and ``g0`` taken out, horizontally as ``x + iy`` (m/s); None without two windows."""
-    inside, terms = model.terms(offset)
-    if terms is None or inside.sum() < 2:
-        return None
-    v, C, F, lever, A, fitted = terms
-    a = without_window_fit(v + C, A, fitted).reshape(len(v), -1, 3)
-    b = without_window_fit(F + lever, A, fitted).reshape(len(v), -1, 3)
-    if gapless:
-        keep = ~spans_outage(model.t[inside], model.real[inside])
-        if keep.sum() < 2:
-            return None
-        a, b = a[keep], b[keep]
-    return a[..., 0] + 1j * a[..., 1], b[..., 0] + 1j * b[..., 1]
-
-
-def spans_outage(t: np.ndarray, real: np.ndarray) -> np.ndarray:
-    """(win,) bool: which windows of pings stamped ``t`` (win, n) s (``real`` False at a window's padding) have a step
-    between pings beyond :data:`MAX_TURN_GAP_S`."""
-    steps = np.diff(t, axis=1)
-    return np.any((steps > MAX_TURN_GAP_S) & real[:, 1:], axis=1)
-
-
-def yaw_sigma(model, offset: float = 0.0) -> tuple[float, float]:
-    """``(yaw, sigma)``, rad: :func:`speed_scale`'s yaw and its standard error with the windows taken as the
-    independent samples (the pings within a window share the IMU side's integrated noise and a misfitted gravity):
-    the larger of the spread of the windows' own fits (the clustered sandwich of ``sum conj(b) a``) and the fit's
-    least-squares error with one sample per window (``sqrt((1 - r^2) / (2 r^2 windows))``), which holds when a few
-    windows happen to agree. NaN without two windows."""
-    return _turn_at(model, offset)[:2]
-
-
-def _turn_at(model, offset: float = 0.0) -> tuple[float, float, float]:
-    """:func:`turn_fit`'s ``(yaw, sigma, r2)`` of the clock model's horizontal sides at ``offset`` s, over its windows
-    with no step beyond :data:`MAX_TURN_GAP_S`."""
-    sides = _horizontal_sides(model, offset, gapless=True)
-    if sides is None:
-        return float("nan"), float("nan"), float("nan")
-    a, b = sides
-    return turn_fit(np.sum(np.conj(b) * a, axis=1), float(np.vdot(a, a).real), float(np.vdot(b, b).real))
-
-
-def turn_fit(z: np.ndarray, aa: float, bb: float) -> tuple[float, float, float]:
-    """``(yaw, sigma, r2)``: the turn about z (rad) of a horizontal velocity ``a`` against ``b`` (complex, ``x + iy``)
-    from the windows' sums ``z`` = sum of ``conj(b) a`` over each window's pings, ``aa`` = sum of ``|a|^2`` and ``bb``
-    = sum of ``|b|^2`` over all pings; its standard error with the windows as the independent samples (the larger of
-    the windows' spread and the fit's least-squares error, :func:`yaw_sigma`) and the share of variance it explains.
-    NaN under two windows."""
-    total, n = z.sum(), len(z)
-    if n < 2:
-        return float("nan"), float("nan"), float("nan")
-    r2 = abs(total) ** 2 / max(aa * bb, 1e-300)
-    spread = n / (n - 1) * np.sum((z / total).imag ** 2) if abs(total) else np.inf
-    fit = (1.0 - r2) / max(2.0 * r2 * n, 1e-300)
-    return float(np.angle(total)), float(np.sqrt(max(spread, fit))), float(r2)
 
 
 def flu_fit_ratio(read, imu, dvl, config, offset: float = 0.0) -> tuple[float, float]:
@@ -646,7 +554,7 @@ def warn_small_turn(dvl, meta: dict, field: str, fixes: dict, yaw: float, sigma:
 
 def turn_against_reference(reference, t_dvl: np.ndarray, v_b: np.ndarray,
                            lever_arm_b: np.ndarray) -> tuple[float, float, float]:
-    """:func:`turn_fit`'s ``(yaw, sigma, r2)`` (rad) of the DVL velocity ``v_b`` (N,3) m/s, body frame as read, against
+    """``turn_fit``'s ``(yaw, sigma, r2)`` (rad) of the DVL velocity ``v_b`` (N,3) m/s, body frame as read, against
     the body velocity of ``reference`` (a :class:`~graphnav.calibration.reference.Reference`) at its stamps ``t_dvl``
     (s, on the IMU clock) plus ``omega x lever_arm_b`` (m, the DVL from the reference's point), horizontally as
     ``x + iy``, the pings in :data:`~graphnav.core.dvl_kinematics.WINDOW_S` windows as its samples. The turn alone:
@@ -684,7 +592,7 @@ def turn_and_lever_against_reference(reference, t_dvl: np.ndarray, v_b: np.ndarr
     arm ``lever_arm_b`` (m, the DVL from the reference's point) lacks. A lever arm off by ``dl`` adds ``omega x dl``
     only while the vehicle turns, a turn rotates the whole velocity: fitted alone (:func:`turn_against_reference`)
     the turn takes up the lever arm's error (Trajectory5 with its lever arm 1.86 m off: -1.6 deg). Sigmas (rad, m)
-    with the pings in :data:`~graphnav.core.dvl_kinematics.WINDOW_S` windows as the samples (as :func:`turn_fit`'s:
+    with the pings in :data:`~graphnav.core.dvl_kinematics.WINDOW_S` windows as the samples (as ``turn_fit``'s:
     the larger of the windows' spread and the least-squares error with one sample per window); ``r2`` the share of
     the horizontal velocity explained. NaN under two windows."""
     sides = _reference_sides(reference, t_dvl, v_b, lever_arm_b)
@@ -879,7 +787,7 @@ def check_velocity_against_imu(imu, dvl, config, meta: dict, moved: bool = False
     messages advise (:data:`DECLARE_DVL_FIXES`, :data:`AKIT_DVL_FIXES`); ``reference``: the mission's reference,
     which says where the vehicle moves when the fits cannot judge the DVL's turn (:func:`warn_dvl_sideways`). A turn
     beyond 10 deg is read at the best scale's offset (:data:`MAX_YAW_RAD`), each turn over the windows no DVL
-    outage crosses (:data:`MAX_TURN_GAP_S`); a few degrees beyond its sigma at the DVL's
+    outage crosses (:data:`~graphnav.core.dvl_kinematics.MAX_TURN_GAP_S`); a few degrees beyond its sigma at the DVL's
     stamps as they stand (a clock found, given or the vehicle's) is warned about and counted (:data:`MIN_YAW_RAD`,
     :func:`warn_small_turn`). A velocity the body kinematics kept as body in a current (``meta[CARRIED]``,
     :func:`graphnav.io.dvl_frame.check_not_earth_frame`) is judged by no mean direction."""
@@ -938,7 +846,7 @@ def check_velocity_against_imu(imu, dvl, config, meta: dict, moved: bool = False
     # a few degrees are read at the DVL's stamps with their sigma: the best scale's offset, up to 20 s off, is noise
     # for them; and a turn beyond 10 deg there that the best offset missed is said too
     if not turned and not dvl_turn:                 # not a quarter turn
-        yaw, sigma, r2 = _turn_at(model)
+        yaw, sigma, r2 = turn_at(model)
         if r2 >= MIN_SCALE_R2:
             warn_small_turn(dvl, meta, field, fixes, yaw, sigma, r2)
     ratio, explained = flu_fit_ratio(model, imu, dvl, config)

@@ -47,6 +47,24 @@ MAX_CLOCK_GAP_S = 5.0
 #: a ping missed, not every step of its steady rate. A 1200 s simulated DVL thinned to a ping every 5 or 6 s, a day
 #: off, was refused as too broken up cut at 5 s; so it is found (0.08 s off), as before the cut.
 GAP_PERIODS = 1.5
+#: The DVL's turn about z (:data:`MAX_YAW_RAD`, :data:`MIN_YAW_RAD`) is fitted over the windows with no step between
+#: pings beyond this (s): across an outage the model's ``int omega x v`` holds the velocity at the gap's ends for the
+#: whole gap, which in a turn leaves a sideways residual the fit reads as a turn. 60 s A-KIT pieces without GT with one
+#: 10-ping outage (an 11 s step; two windows left, one across it) fitted turns of -24/-22/+11/-12 deg and were refused
+#: (Trajectory10 and 2 from 0 s, 1 and 6 from 240 s; the same pieces whole: -9/-15/-0.3/+0.3 deg, under 3 windows'
+#: sigmas or 10 deg). A dropped ping or two (steps of 2-3 s) stay in.
+MAX_TURN_GAP_S = 5.0
+#: Lowest share of the variance the horizontal fit must explain for its scale and yaw to tell anything (r^2, the
+#: best within +- SCALE_SEARCH_S): 0.976-0.999 on nine of the ten A-KIT trajectories, 0.61 on the steady
+#: Trajectory13; simulated missions 0.05-0.39 with the default 0.042 m/s beams, 0.58-0.905 with 0.01 m/s and a
+#: navigation or tactical IMU, 0.41-0.80 with a MEMS one, whose noisy integrals pull the scale to 0.75-0.87 and the
+#: yaw up to 19 deg: those are not judged.
+MIN_SCALE_R2 = 0.9
+#: The scale is taken at the offset within +- this of the DVL stamps where its fit is best, s (knots misled the
+#: clock search by 7.5 s on Trajectory1's first 200 s).
+SCALE_SEARCH_S = 20.0
+#: The DVL offsets (s) the scale and gyro fits take their best of: every 0.5 s within +- SCALE_SEARCH_S.
+SCALE_OFFSETS_S = np.arange(-SCALE_SEARCH_S, SCALE_SEARCH_S + 0.25, 0.5)
 #: Shortest overlap of the two logs at a candidate clock offset, s ...
 MIN_OVERLAP_S = 60.0
 #: ... and at least this fraction of the shorter log.
@@ -374,3 +392,77 @@ def offset_grid(t_imu: np.ndarray, t_other: np.ndarray, min_overlap_s: float, pe
         raise DataError(f"the IMU ({t_imu[-1] - t_imu[0]:.0f} s) and {name} ({t_other[-1] - t_other[0]:.0f} s) logs "
                         f"are too short to share {min_overlap_s:.0f} s at any offset", source, field="t")
     return h, grid
+
+
+def speed_scale(model, offset: float = 0.0, gapless: bool = False) -> tuple[float, float, float]:
+    """``(scale, r2, yaw)``: the DVL's horizontal velocity over the one the IMU's integrals say (1 for a right unit),
+    the share of the variance the fit explains, and the angle the DVL's horizontal axes are turned by (rad, about
+    z: a mounting yaw turns the velocity, it does not scale it), over the model's windows inside the IMU span at
+    ``offset`` s (NaN without two; ``gapless``: only those with no step beyond :data:`MAX_TURN_GAP_S`). The
+    horizontal parts are complex numbers ``x + iy``: the DVL side regressed on the IMU side gives
+    ``scale * exp(i yaw)``."""
+    sides = _horizontal_sides(model, offset, gapless)
+    if sides is None:
+        return float("nan"), float("nan"), float("nan")
+    a, b = sides
+    ab, aa, bb = np.vdot(b, a), float(np.vdot(a, a).real), float(np.vdot(b, b).real)
+    return abs(ab) / max(bb, 1e-300), abs(ab) ** 2 / max(aa * bb, 1e-300), float(np.angle(ab))
+
+
+def _horizontal_sides(model, offset: float, gapless: bool = False):
+    """``(a, b)``, complex (win, pings): the DVL side and the IMU side of the clock model's windows inside the IMU
+    span at ``offset`` s (``gapless``: only those with no step beyond :data:`MAX_TURN_GAP_S`), each window's ``v0``
+    and ``g0`` taken out, horizontally as ``x + iy`` (m/s); None without two windows."""
+    inside, terms = model.terms(offset)
+    if terms is None or inside.sum() < 2:
+        return None
+    v, C, F, lever, A, fitted = terms
+    a = without_window_fit(v + C, A, fitted).reshape(len(v), -1, 3)
+    b = without_window_fit(F + lever, A, fitted).reshape(len(v), -1, 3)
+    if gapless:
+        keep = ~spans_outage(model.t[inside], model.real[inside])
+        if keep.sum() < 2:
+            return None
+        a, b = a[keep], b[keep]
+    return a[..., 0] + 1j * a[..., 1], b[..., 0] + 1j * b[..., 1]
+
+
+def spans_outage(t: np.ndarray, real: np.ndarray) -> np.ndarray:
+    """(win,) bool: which windows of pings stamped ``t`` (win, n) s (``real`` False at a window's padding) have a step
+    between pings beyond :data:`MAX_TURN_GAP_S`."""
+    steps = np.diff(t, axis=1)
+    return np.any((steps > MAX_TURN_GAP_S) & real[:, 1:], axis=1)
+
+
+def yaw_sigma(model, offset: float = 0.0) -> tuple[float, float]:
+    """``(yaw, sigma)``, rad: :func:`speed_scale`'s yaw and its standard error with the windows taken as the
+    independent samples (the pings within a window share the IMU side's integrated noise and a misfitted gravity):
+    the larger of the spread of the windows' own fits (the clustered sandwich of ``sum conj(b) a``) and the fit's
+    least-squares error with one sample per window (``sqrt((1 - r^2) / (2 r^2 windows))``), which holds when a few
+    windows happen to agree. NaN without two windows."""
+    return turn_at(model, offset)[:2]
+
+
+def turn_at(model, offset: float = 0.0) -> tuple[float, float, float]:
+    """:func:`turn_fit`'s ``(yaw, sigma, r2)`` of the clock model's horizontal sides at ``offset`` s, over its windows
+    with no step beyond :data:`MAX_TURN_GAP_S`."""
+    sides = _horizontal_sides(model, offset, gapless=True)
+    if sides is None:
+        return float("nan"), float("nan"), float("nan")
+    a, b = sides
+    return turn_fit(np.sum(np.conj(b) * a, axis=1), float(np.vdot(a, a).real), float(np.vdot(b, b).real))
+
+
+def turn_fit(z: np.ndarray, aa: float, bb: float) -> tuple[float, float, float]:
+    """``(yaw, sigma, r2)``: the turn about z (rad) of a horizontal velocity ``a`` against ``b`` (complex, ``x + iy``)
+    from the windows' sums ``z`` = sum of ``conj(b) a`` over each window's pings, ``aa`` = sum of ``|a|^2`` and ``bb``
+    = sum of ``|b|^2`` over all pings; its standard error with the windows as the independent samples (the larger of
+    the windows' spread and the fit's least-squares error, :func:`yaw_sigma`) and the share of variance it explains.
+    NaN under two windows."""
+    total, n = z.sum(), len(z)
+    if n < 2:
+        return float("nan"), float("nan"), float("nan")
+    r2 = abs(total) ** 2 / max(aa * bb, 1e-300)
+    spread = n / (n - 1) * np.sum((z / total).imag ** 2) if abs(total) else np.inf
+    fit = (1.0 - r2) / max(2.0 * r2 * n, 1e-300)
+    return float(np.angle(total)), float(np.sqrt(max(spread, fit))), float(r2)

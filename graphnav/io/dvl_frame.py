@@ -861,12 +861,11 @@ def turn_against_imu(t_dvl: np.ndarray, v: np.ndarray, t_imu: np.ndarray, f_b: n
                      offsets=(0.0,)) -> tuple[float, float, float, float]:
     """``(yaw, sigma, offset, r2)``: the turn about z (rad) of the body-frame velocity ``v`` (M,3, m/s, at ``t_dvl``
     s) against what the IMU (``t_imu`` s, ``f_b`` m/s^2, ``omega_b`` rad/s) says of its changes, and its standard
-    error (rad, :func:`graphnav.calibration.dvl_scale.yaw_sigma`: the clock model's windows, no lever arm), at the DVL
+    error (rad, :func:`graphnav.core.dvl_kinematics.yaw_sigma`: the clock model's windows, no lever arm), at the DVL
     offset among ``offsets`` (s, added to ``t_dvl``) where the fit explains most of the velocity's changes (``r2``,
-    :func:`~graphnav.calibration.dvl_scale.speed_scale`'s, which a turn of the velocity leaves as it is: both readings
+    :func:`~graphnav.core.dvl_kinematics.speed_scale`'s, which a turn of the velocity leaves as it is: both readings
     of one velocity are judged at one offset); NaN under two windows of pings."""
-    from graphnav.calibration.dvl_scale import speed_scale, yaw_sigma
-    from graphnav.core.dvl_kinematics import dvl_window_model
+    from graphnav.core.dvl_kinematics import dvl_window_model, speed_scale, yaw_sigma
     from graphnav.core.mission import DvlData, ImuData, no_beams
     ok = np.all(np.isfinite(v), axis=1)
     t, v = np.asarray(t_dvl, float)[ok], np.asarray(v, float)[ok]
@@ -936,7 +935,7 @@ def _changes_against_imu(v: np.ndarray, v_b: np.ndarray, imu: tuple | None) -> t
     (:func:`turn_against_imu`) within :data:`DECLARED_EARTH_TURN_RAD` and :data:`DECLARED_EARTH_TURN_SIGMAS` sigmas
     or beyond: ``"body"`` where the columns as read meet the IMU's and, turned to body, do not; ``"earth"`` the
     other way round; None where the IMU does not tell (a vehicle holding its speed, DVL stamps off the IMU span)."""
-    from graphnav.calibration.dvl_scale import MIN_SCALE_R2, SCALE_OFFSETS_S
+    from graphnav.core.dvl_kinematics import MIN_SCALE_R2, SCALE_OFFSETS_S
     if imu is None:
         return None, "the IMU did not judge it (the DVL stamps, with dvl_time_offset_s, off the IMU span)"
     t_dvl, t_imu, f_b, omega_b, known = imu
