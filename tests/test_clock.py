@@ -747,8 +747,8 @@ def test_a_dvl_pinging_every_5_s_is_not_cut_at_every_ping():
 def test_the_clock_search_builds_its_window_model_once_per_load(tmp_path, monkeypatch):
     """The seed-36 log above 5 s late runs every step of the search on the IMU span: the near search, the search
     beyond it, the stamps' score and the offset nearer the stamps. Each built the DVL's window model again (the IMU's
-    integrals on their grid and the DVL's windows): five times per load. The search builds it once and scores it throughout,
-    with the same offset found."""
+    integrals on their grid and the DVL's windows): five times per load. The search builds it once and scores it
+    throughout, with the same offset found."""
     from graphnav.calibration import clock
     built = []
 
@@ -766,3 +766,18 @@ def test_the_clock_search_builds_its_window_model_once_per_load(tmp_path, monkey
     assert built == [True]
     np.testing.assert_allclose(m.dvl.t, sim.dvl.t, atol=1.0)
     assert m.meta["clock_offsets"]["dvl"]["repeated_at_s"] == pytest.approx(78.1, abs=1.0)
+
+
+@pytest.mark.parametrize("on, off", [(5, 6), (5, 10), (4, 8)])
+def test_a_dvl_pinging_in_bursts_between_pauses_finds_its_clock(on, off):
+    """A DVL pinging in bursts of 4-5 pings between 6-10 s pauses (sharing the water with another acoustic
+    instrument), a day off: cut at its steps over 5 s no window of 6 pings was left and it was refused as too broken
+    up. Where the clock cut leaves under two windows the windows are cut at 20 s as before: found 0.3-0.4 s off."""
+    from test_dvl_frame import _simulated
+
+    from graphnav.core.mission import no_beams
+    m, t, v_b = _simulated(600.0)
+    k = np.flatnonzero(np.arange(len(t)) % (on + off) < on)
+    est = estimate_dvl_clock_offset(m.imu, DvlData(t[k] - 86400.0, *no_beams(len(k)), v_b[k]), m.config)
+    assert est.confident, est
+    assert est.offset_s == pytest.approx(86400.0, abs=0.5)

@@ -817,7 +817,7 @@ def test_a_dvl_too_broken_up_for_its_clock_is_refused_naming_the_gaps_not_the_no
     m, t, v_b = sim600
     keep = _outages(t, 30.0, 26.0)
     with pytest.raises(DataError, match=r"the DVL's pings are too broken up to find its clock: \d+ pings with a "
-                                        r"velocity over \d+ s, with 19 gap\(s\) over 5 s without one \(27 s long, "
+                                        r"velocity over \d+ s, with 19 gap\(s\) over 20 s without one \(27 s long, "
                                         r"starting every 30 s\), leaving 1 window\(s\) between them") as err:
         _load(_folder(tmp_path, (m, t[keep], v_b[keep]), v_b[keep], {"clock": "auto"}, shift=86400.0))
     assert err.value.source.endswith("dvl.csv") and "inf" not in str(err.value) and "noise" not in str(err.value)

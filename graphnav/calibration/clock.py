@@ -37,8 +37,8 @@ import numpy as np
 from scipy.optimize import minimize_scalar
 
 from graphnav.calibration.reference import _sigma_from_curvature
-from graphnav.core.dvl_kinematics import (COARSE_MAX_WINDOWS, MAX_CLOCK_GAP_S, MIN_OVERLAP_S, dvl_window_model,
-                                          gaps_said, offset_grid, search_overlap, still_velocity_said,
+from graphnav.core.dvl_kinematics import (COARSE_MAX_WINDOWS, MAX_CLOCK_GAP_S, MAX_WINDOW_GAP_S, MIN_OVERLAP_S,
+                                          dvl_window_model, gaps_said, offset_grid, search_overlap, still_velocity_said,
                                           with_enough_pings)
 from graphnav.core.errors import DataError
 from graphnav.core.streams import add_note, count_doubted, set_span
@@ -190,12 +190,20 @@ class ClockOffset:
 def clock_model(imu, dvl, config=None, lever_arm_b=None, window_pings: int | None = None):
     """The window model the clock search scores offsets on (:func:`~graphnav.core.dvl_kinematics.dvl_window_model`,
     windows trimmed at the IMU's ends; arguments as :func:`estimate_dvl_clock_offset`'s). Built once per search: the
-    near and far searches, the stamps' score and the nearer offset's all score this one (``model``).
+    near and far searches, the stamps' score and the nearer offset's all score this one (``model``). Its windows are
+    cut at steps between pings over :data:`~graphnav.core.dvl_kinematics.MAX_CLOCK_GAP_S`, or over
+    :data:`~graphnav.core.dvl_kinematics.MAX_WINDOW_GAP_S` where the shorter cut leaves under two windows: a DVL
+    pinging in bursts of 5 pings between 6-10 s pauses has no 6 pings between two steps over 5 s, and was refused as
+    too broken up for its clock where windows across the pauses find it 0.3-0.4 s off (600 s simulated, a day off).
 
     Raises:
         DataError: fewer than two windows of pings with a velocity.
     """
-    return dvl_window_model(imu, dvl, config, lever_arm_b, window_pings, trim=True, max_gap_s=MAX_CLOCK_GAP_S)[0]
+    model, _ = dvl_window_model(imu, dvl, config, lever_arm_b, window_pings, trim=True, max_gap_s=MAX_CLOCK_GAP_S)
+    if len(model.t) >= 2:
+        return model
+    return dvl_window_model(imu, dvl, config, lever_arm_b, window_pings, trim=True, max_gap_s=MAX_WINDOW_GAP_S,
+                            ints=model.imu)[0]
 
 
 def estimate_dvl_clock_offset(imu, dvl, config=None, *, min_overlap_s: float = MIN_OVERLAP_S,
@@ -220,8 +228,9 @@ def estimate_dvl_clock_offset(imu, dvl, config=None, *, min_overlap_s: float = M
 
     Raises:
         DataError: fewer than two windows of usable pings (at every offset: pings broken up by outages over
-            :data:`~graphnav.core.dvl_kinematics.MAX_CLOCK_GAP_S`, the message names them), or logs too short to
-            overlap ``min_overlap_s``.
+            :data:`~graphnav.core.dvl_kinematics.MAX_CLOCK_GAP_S`, or over
+            :data:`~graphnav.core.dvl_kinematics.MAX_WINDOW_GAP_S` where the shorter cut leaves under two windows
+            (:func:`clock_model`), the message names them), or logs too short to overlap ``min_overlap_s``.
     """
     model = clock_model(imu, dvl, config, lever_arm_b, window_pings) if model is None else model
     ints, window, t_dvl = model.imu, model.window, model.t_pings
