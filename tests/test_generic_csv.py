@@ -372,6 +372,29 @@ def test_samples_moved_close_where_readings_repeat_are_kept_though_the_file_move
     assert late.size > 800 and nudged_copies(t, np.column_stack([t, depth]))[0].size == 0
 
 
+def test_a_dvl_changing_its_ping_rate_is_neither_copies_nor_close_rows():
+    """A DVL pinging at 2 Hz for 3000 s, then at 20 Hz for 300 s near the bottom, at rest on 1 mm/s counts: judged
+    against the file's median step every fast ping was under a fifth of a step (5999 doubted as two samples where the
+    stream makes one) and 3358 were dropped as rows written twice. Judged against the steps near them, none; a row
+    written again 1 ms later among the slow pings is still dropped, and one with other values still doubted."""
+    from graphnav.core.screening import CLOSE_SAMPLES, nudged_copies, say_close_samples
+    rng = np.random.default_rng(0)
+    t = np.concatenate([np.arange(0.0, 3000.0, 0.5), 3000.0 + np.arange(0.0, 300.0, 0.05)])
+    v = np.round(rng.normal(0.0, 3e-4, (len(t), 3)) / 1e-3) * 1e-3 + 0.5
+    v[:3000] += rng.normal(0.0, 0.01, (3000, 3))
+    rows = np.column_stack([t, v])
+    assert nudged_copies(t, rows)[0].size == 0
+    meta = {}
+    say_close_samples(t, np.arange(len(t)) + 2, "dvl.csv", "dvl", meta)
+    assert not meta.get("streams", {}).get("dvl", {}).get("doubted")
+    twice = np.insert(rows, 1000, rows[999] + [0.001, 0, 0, 0], axis=0)
+    assert nudged_copies(twice[:, 0], twice)[0].tolist() == [1000]
+    other = np.insert(rows, 1000, rows[999] + [0.001, 0.01, 0, 0], axis=0)
+    with pytest.warns(RuntimeWarning, match="1 dvl row"):
+        say_close_samples(other[:, 0], np.arange(len(other)) + 2, "dvl.csv", "dvl", meta)
+    assert meta["streams"]["dvl"]["doubted"] == {CLOSE_SAMPLES: 1}
+
+
 def test_a_row_written_twice_is_dropped_and_two_rows_under_one_stamp_need_repair_stamps(sim, tmp_path):
     """As in an A-KIT folder: an IMU row written twice exactly is dropped, warned about with its line and counted;
     a repeated stamp with other values is refused naming the file, line, column and --repair-stamps, which drops
