@@ -338,12 +338,61 @@ def test_an_imu_at_rest_with_coarse_counts_keeps_its_repeated_samples_jitter_mov
     rows = np.column_stack([t, at_rest])
     close = np.diff(t) < 0.005
     assert close.sum() > 100 and np.all(rows[1:, 1:][close] == rows[:-1, 1:][close], axis=1).sum() > 10
-    assert nudged_copies(t, rows, "imu")[0].size == 0
+    assert nudged_copies(t, rows)[0].size == 0
     t = np.arange(n) * 0.01 + rng.uniform(-0.002, 0.002, n)
     noisy = np.column_stack([t, at_rest + rng.normal(0.0, 1e-3, (n, 6))])
     twice = np.insert(noisy, 1001, noisy[1000] + [0.001, 0, 0, 0, 0, 0, 0], axis=0)
-    kept, later = nudged_copies(twice[:, 0], twice, "imu")
+    kept, later = nudged_copies(twice[:, 0], twice)
     assert kept.tolist() == [1001] and later == pytest.approx(0.001)
+
+
+def test_samples_moved_close_where_readings_repeat_are_kept_though_the_file_moves_elsewhere():
+    """An IMU at rest with coarse counts on a clock jittering by up to 1 ms for its first 60 s (before a dive), then
+    moving with noisy readings on a clean clock: its readings repeat at whole steps only in those 60 s, so judged over
+    the file 1434-1467 of its samples (seeds 0-2) jitter moved close were dropped as rows written twice. A 4 Hz depth
+    held on 1 cm counts with 30 % of its samples read with the next one 1 ms later lost 500 of 3000. Judged near the
+    row, all are kept; a row written again 1 ms later among the moving readings is still dropped."""
+    from graphnav.core.screening import nudged_copies
+    n_rest, n_move = 24000, 120000
+    for seed in range(3):
+        rng = np.random.default_rng(10 + seed)
+        t = np.arange(n_rest + n_move) / 400.0
+        t[:n_rest] += rng.uniform(-0.001, 0.001, n_rest)
+        rest = np.round(rng.normal(0.0, 0.01, (n_rest, 6)) / 0.05) * 0.05 + [0, 0, -9.8, 0, 0, 0]
+        moving = rng.normal(0.0, 0.05, (n_move, 6)) + [0, 0, -9.8, 0, 0, 0]
+        rows = np.column_stack([t, np.vstack([rest, moving])])
+        assert nudged_copies(t, rows)[0].size == 0
+        twice = np.insert(rows, 100000, rows[99999] + [0.001, 0, 0, 0, 0, 0, 0], axis=0)
+        assert nudged_copies(twice[:, 0], twice)[0].tolist() == [100000]
+    rng = np.random.default_rng(1)
+    t = np.arange(3000) * 0.25
+    late = np.flatnonzero(rng.random(2999) < 0.3)
+    t[late] = t[late + 1] - 0.001
+    depth = np.round((20.0 + rng.normal(0.0, 0.003, 3000)) / 0.01) * 0.01
+    assert late.size > 800 and nudged_copies(t, np.column_stack([t, depth]))[0].size == 0
+
+
+def test_a_dvl_changing_its_ping_rate_is_neither_copies_nor_close_rows():
+    """A DVL pinging at 2 Hz for 3000 s, then at 20 Hz for 300 s near the bottom, at rest on 1 mm/s counts: judged
+    against the file's median step every fast ping was under a fifth of a step (5999 doubted as two samples where the
+    stream makes one) and 3358 were dropped as rows written twice. Judged against the steps near them, none; a row
+    written again 1 ms later among the slow pings is still dropped, and one with other values still doubted."""
+    from graphnav.core.screening import CLOSE_SAMPLES, nudged_copies, say_close_samples
+    rng = np.random.default_rng(0)
+    t = np.concatenate([np.arange(0.0, 3000.0, 0.5), 3000.0 + np.arange(0.0, 300.0, 0.05)])
+    v = np.round(rng.normal(0.0, 3e-4, (len(t), 3)) / 1e-3) * 1e-3 + 0.5
+    v[:3000] += rng.normal(0.0, 0.01, (3000, 3))
+    rows = np.column_stack([t, v])
+    assert nudged_copies(t, rows)[0].size == 0
+    meta = {}
+    say_close_samples(t, np.arange(len(t)) + 2, "dvl.csv", "dvl", meta)
+    assert not meta.get("streams", {}).get("dvl", {}).get("doubted")
+    twice = np.insert(rows, 1000, rows[999] + [0.001, 0, 0, 0], axis=0)
+    assert nudged_copies(twice[:, 0], twice)[0].tolist() == [1000]
+    other = np.insert(rows, 1000, rows[999] + [0.001, 0.01, 0, 0], axis=0)
+    with pytest.warns(RuntimeWarning, match="1 dvl row"):
+        say_close_samples(other[:, 0], np.arange(len(other)) + 2, "dvl.csv", "dvl", meta)
+    assert meta["streams"]["dvl"]["doubted"] == {CLOSE_SAMPLES: 1}
 
 
 def test_a_row_written_twice_is_dropped_and_two_rows_under_one_stamp_need_repair_stamps(sim, tmp_path):

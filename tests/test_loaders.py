@@ -941,13 +941,14 @@ def _read_raw(folder):
     return raw, [str(w.message) for w in caught if issubclass(w.category, RuntimeWarning)]
 
 
-def _noisy_imu(folder, seed=0):
-    """The synthetic folder's IMU with white noise on every value (the real files' rows never repeat)."""
-    imu = next(folder.glob("IMU_*.csv"))
-    data = np.loadtxt(imu, delimiter=",", skiprows=1)
+def _noisy(folder, kind="IMU", seed=0):
+    """The synthetic folder's ``kind`` file (its DVL holds one velocity) with white noise on every value (the real
+    files' rows never repeat)."""
+    path = next(folder.glob(f"{kind}_*.csv"))
+    data = np.loadtxt(path, delimiter=",", skiprows=1)
     data[:, 1:] += np.random.default_rng(seed).normal(0.0, 1e-3, data[:, 1:].shape)
-    write_csv(imu, AKIT_COLUMNS["IMU"], data.tolist())
-    return imu
+    write_csv(path, AKIT_COLUMNS[kind], data.tolist())
+    return path
 
 
 @pytest.mark.parametrize("kind, line", [("DVL", 2), ("DVL", 61), ("DVL", 120), ("IMU", 6001)])
@@ -958,7 +959,8 @@ def test_akit_row_written_twice_1_ms_later_is_dropped_and_the_published_grid_rea
     file and line and counted, and the file reads as the clean one, stamps rescaled."""
     from graphnav.core import screening
     folder = make_akit_folder(tmp_path, n=1)
-    _noisy_imu(folder)
+    for noisy in sorted({"IMU", kind}):
+        _noisy(folder, noisy)
     clean, _ = _read_raw(folder)
     path = folder / f"{kind}_trajectory1.csv"
     _write_twice(path, line, 0.001)
@@ -982,7 +984,7 @@ def test_akit_row_written_twice_with_other_values_1_ms_later_is_kept_on_the_publ
     IMU's as a step of its clock); the file's stamps were kept as read, 0.25 % slow, and are now the published grid
     rescaled: every other row's stamp as in the clean file, the extra one rescaled with them."""
     folder = make_akit_folder(tmp_path, n=1)
-    _noisy_imu(folder)
+    _noisy(folder)
     clean, _ = _read_raw(folder)
     path = folder / f"{kind}_trajectory1.csv"
     stamp = float(path.read_text().splitlines()[line - 1].split(",")[0])
