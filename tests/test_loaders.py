@@ -975,8 +975,7 @@ def test_akit_row_written_twice_1_ms_later_is_dropped_and_the_published_grid_rea
 
 
 @pytest.mark.parametrize("kind, line, said", [
-    ("DVL", 61, "s) after the row before them (up to 1 ms later), with other values: two samples where the stream "
-                "makes one"),
+    ("DVL", 61, "s) after the row before them (up to 1 ms later): two samples where the stream makes one"),
     ("IMU", 6001, "the IMU clock steps -9.")])
 def test_akit_row_written_twice_with_other_values_1_ms_later_is_kept_on_the_published_grid(tmp_path, kind, line, said):
     """A DVL ping (or IMU sample) 1 ms after the one before it with other values: two samples where the grid holds

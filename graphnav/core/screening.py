@@ -945,9 +945,9 @@ def stamp_order(t: np.ndarray, rows: np.ndarray, lines: np.ndarray, source: str,
     A row equal to an earlier one in its stamp and every value (NaN equal to NaN) is the same sample written
     twice (a logger flushing its buffer again): dropped with a warning; so is a row repeating the row before it in
     every value under half a step later, its stamp nudged (:func:`nudged_copies`: a stamp grid read without it); a
-    row of a stream other than an IMU stamped under a fifth of a step after the one before it with other values is
-    kept, warned about and doubted (:func:`say_close_samples`). An IMU's (``stream`` "imu") packets sharing
-    one stamp (:func:`~graphnav.core.imu_timing.shared_stamp_packets`) or from a clock coarser than its period or
+    row of a stream other than an IMU stamped under a fifth of a step after the one before it (other values, or
+    equal ones kept as samples) is kept, warned about and doubted (:func:`say_close_samples`). An IMU's (``stream``
+    "imu") packets sharing one stamp (:func:`~graphnav.core.imu_timing.shared_stamp_packets`) or from a clock coarser than its period or
     about as coarse (:func:`~graphnav.core.imu_timing.quantised_clock`) are restamped at the period
     (:func:`~graphnav.core.imu_timing.restamp_shared_stamps`, noted in ``meta``); an IMU's row equal to the one
     before it at a stamp holding no more samples than such a stamp does is a sample (an IMU at rest with coarse
@@ -1015,7 +1015,7 @@ def stamp_order(t: np.ndarray, rows: np.ndarray, lines: np.ndarray, source: str,
 
 #: Reason under which rows of a stream other than an IMU stamped close after the row before them are doubted
 #: (:func:`say_close_samples`).
-CLOSE_SAMPLES = "stamped under a fifth of a step after the row before it, with other values (kept)"
+CLOSE_SAMPLES = "stamped under a fifth of a step after the row before it (kept)"
 #: A row stamped less than this share of its stream's median step after the one before it is written for the same
 #: sample time (a DVL ping 1 ms after another: 0.001 of its step; two stamped together). A stamp grid allows it on
 #: the grid point of the row before (:func:`graphnav.io.loaders.grid_step`); a logger's burst (0.3 of a step) is no
@@ -1038,10 +1038,9 @@ def say_close_samples(t: np.ndarray, lines: np.ndarray, source: str, stream: str
         later_ms = float(np.max(t[close] - t[close - 1])) * 1e3
         say_doubted(meta, stream, source, f"{close.size} {stream} row(s) stamped under a fifth of the median step "
                     f"({float(np.median(usual[close - 1])):.3g} s) after the row before them (up to {later_ms:.3g} ms "
-                    f"later), with other values: two samples where the stream makes one (a row written twice with "
-                    f"another reading, "
-                    f"or two stamped together), both kept, at line(s) {first_lines(lines[close])}", CLOSE_SAMPLES,
-                    int(close.size), stacklevel=5)
+                    f"later): two samples where the stream makes one (a row written twice with another "
+                    f"reading, equal readings where the stream's repeat, or two stamped together), both kept, at "
+                    f"line(s) {first_lines(lines[close])}", CLOSE_SAMPLES, int(close.size), stacklevel=5)
 
 
 def usual_steps(step: np.ndarray) -> np.ndarray:
