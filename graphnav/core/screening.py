@@ -947,8 +947,8 @@ def stamp_order(t: np.ndarray, rows: np.ndarray, lines: np.ndarray, source: str,
     every value under half a step later, its stamp nudged (:func:`nudged_copies`: a stamp grid read without it); a
     row of a stream other than an IMU stamped under a fifth of a step after the one before it (other values, or
     equal ones kept as samples) is kept, warned about and doubted (:func:`say_close_samples`). An IMU's (``stream``
-    "imu") packets sharing one stamp (:func:`~graphnav.core.imu_timing.shared_stamp_packets`) or from a clock coarser than its period or
-    about as coarse (:func:`~graphnav.core.imu_timing.quantised_clock`) are restamped at the period
+    "imu") packets sharing one stamp (:func:`~graphnav.core.imu_timing.shared_stamp_packets`) or from a clock coarser
+    than its period or about as coarse (:func:`~graphnav.core.imu_timing.quantised_clock`) are restamped at the period
     (:func:`~graphnav.core.imu_timing.restamp_shared_stamps`, noted in ``meta``); an IMU's row equal to the one
     before it at a stamp holding no more samples than such a stamp does is a sample (an IMU at rest with coarse
     counts, :func:`~graphnav.core.imu_timing.samples_sharing_a_stamp`), not a copy; where every row sharing a stamp
