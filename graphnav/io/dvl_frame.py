@@ -162,6 +162,8 @@ DECLARED_EARTH_OFF_WARNED = np.deg2rad(30.0)
 #: true NED copies at most 1.04 (A-KIT pieces that barely turn 0.54, 1152 slow vehicles in currents 0.37, straight legs
 #: crabbing in cross currents or moving sideways 1.04); body copies declared ned up to 28 (A-KIT) and 59 (simulated),
 #: under 3 where the speed is held (sigma 100 deg and more) and on a 0.05 m/s swing of speed (sigma about 25 deg).
+#: One reading must be nearer the IMU's than the other by this too: a true NED copy heading 10 deg whose heading column
+#: reads 13 deg more, in waves (sigma 0.7 deg), meets the IMU -13.1 deg turned to body and +9.9 deg as read.
 DECLARED_EARTH_TURN_RAD = np.deg2rad(10.0)
 #: ... and the sigmas (:data:`DECLARED_EARTH_TURN_RAD`).
 DECLARED_EARTH_TURN_SIGMAS = 3.0
@@ -934,7 +936,10 @@ def _changes_against_imu(v: np.ndarray, v_b: np.ndarray, imu: tuple | None) -> t
     :func:`check_declared_earth_course`'s), each reading's changes turned about z from the IMU's
     (:func:`turn_against_imu`) within :data:`DECLARED_EARTH_TURN_RAD` and :data:`DECLARED_EARTH_TURN_SIGMAS` sigmas
     or beyond: ``"body"`` where the columns as read meet the IMU's and, turned to body, do not; ``"earth"`` the
-    other way round; None where the IMU does not tell (a vehicle holding its speed, DVL stamps off the IMU span)."""
+    other way round; each only where that reading is nearer the IMU's than the other by :data:`DECLARED_EARTH_TURN_RAD`
+    too (the readings are turned from each other by about the mean heading column: a heading column or mounting
+    further off than the allowance, on a heading within it, turns them as a frame would); None where the IMU does not
+    tell (a vehicle holding its speed, DVL stamps off the IMU span, readings that close)."""
     from graphnav.core.dvl_kinematics import MIN_SCALE_R2, SCALE_OFFSETS_S
     if imu is None:
         return None, "the IMU did not judge it (the DVL stamps, with dvl_time_offset_s, off the IMU span)"
@@ -956,7 +961,11 @@ def _changes_against_imu(v: np.ndarray, v_b: np.ndarray, imu: tuple | None) -> t
              f"{np.degrees(sigma_r):.1f} deg (a velocity in its right frame: within {np.degrees(floor):g} deg and "
              f"{k:g} sigmas){'' if known else f'; at the DVL offset {offset:+.1f} s, where they fit best'}")
     body_off, read_off = abs(yaw_b) - floor > k * sigma_b, abs(yaw_r) - floor > k * sigma_r
-    if body_off != read_off:
+    # the two readings are turned from each other by about the mean heading column; where one is not nearer the IMU's
+    # by the allowance too, a heading column or mounting that far off (a true NED copy heading 10 deg, its heading
+    # column 13 deg off: -13.1 and +9.9 deg) reads as a frame's turn
+    apart = abs(abs(yaw_b) - abs(yaw_r)) > floor
+    if body_off != read_off and apart:
         return ("body" if body_off else "earth"), found
     return None, f"the IMU does not tell them apart: {found}"
 
