@@ -40,8 +40,9 @@ MAX_WINDOW_GAP_S = WINDOW_S
 #: (Trajectory1 from 240 s: +1.48 s for about +1.0), across 16 s three, one 13 s off. Cut at 5 s: 90 % within 0.08 s at
 #: every step, one piece 0.27 s off (8 s step); cut at 3 or 4 s, the 3-5 s steps' fits move under 0.03 s. 600 s
 #: simulated logs a day off with 45 % of their pings lost in runs of 5 (6 s steps; seeds 0-5, with and without speed
-#: spikes): 5 of 12 refused with windows across the steps, all 12 found within 0.18 s cut at 5 s. The turn fit's
-#: MAX_TURN_GAP_S is the same 5 s.
+#: spikes): 5 of 12 refused with windows across the steps, all 12 found within 0.18 s cut at 5 s. Where this cut finds
+#: no confident offset, the clock search tries windows cut at MAX_WINDOW_GAP_S as well (a noisy DVL losing pings
+#: often: :func:`graphnav.calibration.clock.align_stream_clocks`). The turn fit's MAX_TURN_GAP_S is the same 5 s.
 MAX_CLOCK_GAP_S = 5.0
 #: ... and any window model's, for a DVL pinging slower, at gaps over this many of its ping periods (the median step):
 #: a ping missed, not every step of its steady rate. A 1200 s simulated DVL thinned to a ping every 5 or 6 s, a day
