@@ -6,10 +6,11 @@ gravity ``g_b`` is unknown without an attitude reference, but over a short windo
 exactly: ``g_b(t) = R(t)^T g0`` with R the gyro-integrated attitude. So, per window of :data:`WINDOW_S`
 of DVL pings (cut at steps between pings over :data:`~graphnav.core.dvl_kinematics.MAX_CLOCK_GAP_S`: a velocity held
 through an outage is none the vehicle had; where that finds no confident offset, :func:`align_stream_clocks` also
-searches windows cut only at steps over :data:`~graphnav.core.dvl_kinematics.MAX_WINDOW_GAP_S`), ``v0`` and ``g0`` are fitted by linear least squares and the residual
-measures how well the IMU explains the DVL at a candidate offset (against a straight line per window, the fit
-without the IMU: the *explained fraction*). Earth rate, gyro drift and accelerometer bias only enter through g0,
-refitted per window (the model: :mod:`graphnav.core.dvl_kinematics`, which the DVL checks share).
+searches windows cut only at steps over :data:`~graphnav.core.dvl_kinematics.MAX_WINDOW_GAP_S`), ``v0`` and ``g0``
+are fitted by linear least squares and the residual measures how well the IMU explains the DVL at a candidate
+offset (against a straight line per window, the fit without the IMU: the *explained fraction*). Earth rate, gyro
+drift and accelerometer bias only enter through g0, refitted per window (the model:
+:mod:`graphnav.core.dvl_kinematics`, which the DVL checks share).
 
 :func:`estimate_dvl_clock_offset` scores every offset at which the two logs share at least
 :data:`MIN_OVERLAP_S` and half the shorter log (the whole possible range: the spans need not overlap, the DVL
