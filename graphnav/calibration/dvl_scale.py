@@ -840,7 +840,7 @@ def check_velocity_against_imu(imu, dvl, config, meta: dict, moved: bool = False
     if imu_frame is not None and not dvl_yawed:     # before the DVL's yaw: a turned IMU turns the velocity too
         # the best scale's offset where its fit explains enough to fix the DVL's clock; where not (a vehicle holding
         # its speed: r^2 0.02-0.4) its best is noise, up to 20 s off, and every fit is read at its own best offset
-        # offset: its best is noise too where another offset fits as well turned back (a surge in waves)
+        # and where another offset fits as well turned back (a speed swinging with a period) its best is noise too
         fixed = r2 >= MIN_SCALE_R2 and not fits_turned_elsewhere(fits, best)
         offsets = ((0.0,) if carried else (SCALE_OFFSETS_S[best],) if fixed else SCALE_OFFSETS_S)
         dvl_turn = check_imu_yaw(imu, dvl, config, meta, imu_frame, model, offsets, carried)
