@@ -262,6 +262,26 @@ def _straight_leg(sim, heading_deg, surge, seed=3, speed=2.0, sideways=False):
     return (m_leg, t, None), v_b, v_n, cols, {"euler": list(cols), "angle_unit": "deg"}
 
 
+@pytest.mark.parametrize("period_s", [8.0, 20.0])
+def test_a_straight_leg_surging_in_waves_is_judged_for_an_imu_turned_at_no_offset_half_a_period_off(sim, tmp_path,
+                                                                                                    period_s):
+    """Body-frame columns of a vehicle at 1 m/s on a straight leg, its speed swinging 0.5 m/s every 8 or 20 s (waves):
+    the scale fit's r^2, blind to the velocity's sign, is as good half a period off turned 180 deg, and noise put its
+    best there (12 or 10 s off), where the IMU as read fits worse than turned: the clean log was refused as an IMU
+    turned 180 deg, and the same log with the IMU truly turned loaded silently. Each fit is now read at its own best
+    offset: the clean log loads exactly, the turned IMU is refused."""
+    m, _, _ = sim
+    t_imu, f_b, omega_b, t, v_b = _slow_in_current(1, 1.0, 0.0, turn_deg_s=0.05, heading_deg=0.0, surge=0.5,
+                                                   surge_period_s=period_s)
+    leg = dataclasses.replace(m, imu=dataclasses.replace(m.imu, t=t_imu, f_b=f_b, omega_b=omega_b))
+    got = _load(_folder(tmp_path, (leg, t, None), v_b))
+    np.testing.assert_allclose(got.dvl.v_b, v_b, atol=1e-9)
+    turned = np.array([-1.0, -1.0, 1.0])        # the IMU's axes turned 180 deg about z
+    leg = dataclasses.replace(leg, imu=dataclasses.replace(leg.imu, f_b=f_b * turned, omega_b=omega_b * turned))
+    with pytest.raises(DataError, match=r"imu\.csv.*the IMU's axes are turned 180 deg about z"):
+        _load(_folder(tmp_path, (leg, t, None), v_b))
+
+
 @pytest.mark.parametrize("heading_deg, later_refusal", [(137.0, "imu.csv"), (-117.0, "imu.csv"),
                                                         (53.0, "FLU axes"), (-40.0, ""), (45.0, "")])
 def test_body_columns_declared_ned_on_a_straight_leg_at_a_held_speed_are_warned_by_where_they_point(

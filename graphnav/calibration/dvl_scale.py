@@ -771,6 +771,18 @@ def _likely_unit(scale: float, declare: bool) -> str:
     return LIKELY_UNITS[factor][0 if declare else 1]
 
 
+def fits_turned_elsewhere(fits: list, best: int) -> bool:
+    """Whether the scale fits (:func:`speed_scale`'s, one per offset of :data:`SCALE_OFFSETS_S`) explain
+    :data:`MIN_SCALE_R2` at an offset whose turn lies over 90 deg from the best's (index ``best``): the fit's r^2 is
+    blind to a velocity's sign, and a speed swinging with a period (a vehicle surging in waves) fits half a period
+    off turned 180 deg as well as on time (straight legs at 1 m/s surging 0.1-0.5 m/s every 8-20 s: r^2 within
+    0.001 of the best there), so the best offset, which noise picks, fixes no clock for the IMU-turn fits."""
+    yaws = np.array([f[2] for f in fits])
+    r2 = np.array([np.nan_to_num(f[1], nan=-1.0) for f in fits])
+    turned = np.abs(np.angle(np.exp(1j * (yaws - yaws[best])))) > np.pi / 2      # NaN yaw: False
+    return bool(np.any(turned & (r2 >= MIN_SCALE_R2)))
+
+
 def check_velocity_against_imu(imu, dvl, config, meta: dict, moved: bool = False, imu_frame: dict | None = None,
                                field: str | None = None, fixes: dict = DECLARE_DVL_FIXES, reference=None) -> None:
     """DataError when the DVL velocity (on the IMU clock) is far from the IMU's in scale (:func:`speed_scale`, a
@@ -782,7 +794,8 @@ def check_velocity_against_imu(imu, dvl, config, meta: dict, moved: bool = False
     kinematics judging a velocity that turns with the vehicle at each reading's own best DVL clock offset.
     ``imu_frame``: the IMU's declared frame (the loader's ``meta["prepare"]["imu_frame"]``) when no reference attitude
     checked its axes: its turn about z is checked too (:func:`check_imu_yaw`, at the offset of the best scale fit, which
-    a turn leaves, where that fit explains at least :data:`MIN_SCALE_R2`; else each fit at its own best offset).
+    a turn leaves, where that fit explains at least :data:`MIN_SCALE_R2` and fits no offset as well turned back
+    (:func:`fits_turned_elsewhere`); else each fit at its own best offset).
     ``field``: the DVL columns named (default the loader's ``meta["stream_fields"]["dvl"]``); ``fixes``: what the
     messages advise (:data:`DECLARE_DVL_FIXES`, :data:`AKIT_DVL_FIXES`); ``reference``: the mission's reference,
     which says where the vehicle moves when the fits cannot judge the DVL's turn (:func:`warn_dvl_sideways`). A turn
@@ -827,7 +840,9 @@ def check_velocity_against_imu(imu, dvl, config, meta: dict, moved: bool = False
     if imu_frame is not None and not dvl_yawed:     # before the DVL's yaw: a turned IMU turns the velocity too
         # the best scale's offset where its fit explains enough to fix the DVL's clock; where not (a vehicle holding
         # its speed: r^2 0.02-0.4) its best is noise, up to 20 s off, and every fit is read at its own best offset
-        offsets = ((0.0,) if carried else (SCALE_OFFSETS_S[best],) if r2 >= MIN_SCALE_R2 else SCALE_OFFSETS_S)
+        # and where another offset fits as well turned back (a speed swinging with a period) its best is noise too
+        fixed = r2 >= MIN_SCALE_R2 and not fits_turned_elsewhere(fits, best)
+        offsets = ((0.0,) if carried else (SCALE_OFFSETS_S[best],) if fixed else SCALE_OFFSETS_S)
         dvl_turn = check_imu_yaw(imu, dvl, config, meta, imu_frame, model, offsets, carried)
     if turned:
         _say_dvl_turned(dvl, meta, field, fixes, f"the DVL velocity is turned {np.degrees(yaw):+.1f} deg about z from "
