@@ -202,9 +202,13 @@ def clock_model(imu, dvl, config=None, lever_arm_b=None, window_pings: int | Non
         DataError: fewer than two windows of pings with a velocity.
     """
     model, _ = dvl_window_model(imu, dvl, config, lever_arm_b, window_pings, trim=True, max_gap_s=MAX_CLOCK_GAP_S)
-    if len(model.t) >= 2:
-        return model
-    return dvl_window_model(imu, dvl, config, lever_arm_b, window_pings, trim=True, max_gap_s=MAX_WINDOW_GAP_S,
+    return model if len(model.t) >= 2 else _across_short_gaps_model(imu, dvl, config, model)
+
+
+def _across_short_gaps_model(imu, dvl, config, model):
+    """The clock model ``model`` with its windows cut only at steps between pings over
+    :data:`~graphnav.core.dvl_kinematics.MAX_WINDOW_GAP_S` (its IMU integrals, lever arm and window kept)."""
+    return dvl_window_model(imu, dvl, config, model.lever, model.window, trim=True, max_gap_s=MAX_WINDOW_GAP_S,
                             ints=model.imu)[0]
 
 
@@ -417,8 +421,7 @@ def _across_short_gaps(imu, dvl, config, min_overlap_s: float, inside: bool, mod
     its pings often for a few seconds has its windows halved by the shorter cut and its peak thinned: 200-800 s
     simulated logs with 0.035 m/s beams, 30 % of their pings lost in runs of 6 (7 s steps) and 5-120 s late, 14 of 36
     found within 0.14 s on the longer windows were left on their stamps on the shorter."""
-    wider = dvl_window_model(imu, dvl, config, model.lever, model.window, trim=True, max_gap_s=MAX_WINDOW_GAP_S,
-                             ints=model.imu)[0]
+    wider = _across_short_gaps_model(imu, dvl, config, model)
     try:
         across = _searched_offset(imu, dvl, config, min_overlap_s, inside, wider)
     except DataError:
