@@ -45,7 +45,11 @@ and 3 and the move of the GT to the IMU point, is the prepare step's (the read m
    ``omega x l`` (lever arm held at ``lever_arm_b``). Estimating from the data rather than shipping a
    table works for any A-KIT folder, including the three not in ``../shared/data``. A GT or DVL file on a clock
    of its own (seconds or days away) is first put on the IMU clock from the data
-   (:mod:`graphnav.calibration.clock`).
+   (:mod:`graphnav.calibration.clock`). That offset is for the stamps as rescaled, about the origin step 1 took: a
+   file starting later than the longest file lasts (a day away), rescaled about its own first stamp, cut ``t0`` s
+   into a published grid, records 0.0025 ``t0`` s less than the published file's offset less the clock's shift
+   (0.83 s for a piece from 330 s); a file a few seconds late, rescaled about 0 with its shift, 0.0025 of the shift
+   more. Either way its samples land where the published file's do.
 4. **GT.** lat/lon/alt -> NED with the project's one position convention
    (:data:`graphnav.core.mission.NED_ORIGIN_CONVENTION`): the origin is the sea surface above the first GT
    sample, ``origin_lla = (lat0, lon0, 0)``, so north/east start at 0 and ``p_n[:, 2]`` is the absolute depth
