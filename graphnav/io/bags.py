@@ -53,6 +53,7 @@ from graphnav.core.config import SensorConfig
 from graphnav.core.errors import ConfigError, DataError
 from graphnav.core.imu_timing import shown_rate_hz
 from graphnav.core.mission import Mission
+from graphnav.core.screening import say_close_samples
 from graphnav.core.streams import add_note, count_read, count_refused, set_span
 from graphnav.io import bag_convert as conv
 from graphnav.io import bag_fields
@@ -266,9 +267,9 @@ def read_streams(path: str | Path, topics: dict[str, str] | None = None, wanted:
                  required: tuple[str, ...] = REQUIRED_STREAMS, meta: dict | None = None, dvl_fields: dict | None = None
                  ) -> dict[str, list[Stream]]:
     """Stream -> the decoded candidate topics (the override alone when given), stamps chosen per topic by
-    :func:`graphnav.io.bag_stamps.choose_stamps`; notes and counts go to ``meta``. ``dvl_fields``: the
+    :func:`graphnav.io.bag_stamps.choose_stamps`, messages published twice dropped
+    (:func:`graphnav.io.bag_convert.decoded_stream`); notes and counts go to ``meta``. ``dvl_fields``: the
     configuration's ``bag_topics.dvl`` (:mod:`graphnav.io.bag_fields`), whose topic is the DVL's."""
-    from graphnav.io.bag_stamps import choose_stamps
     path = Path(path)
     source = str(path)
     meta = {} if meta is None else meta
@@ -290,10 +291,7 @@ def read_streams(path: str | Path, topics: dict[str, str] | None = None, wanted:
                 for topic in names:
                     if topic not in decoded:
                         msgtype, head, rx, rows = bag.topic(topic)
-                        sub: dict = {}
-                        t_ns, keep, how = choose_stamps(head, rx, sub, stream, f"{source}:{topic}")
-                        decoded[topic] = Stream(topic, msgtype, t_ns, [rows[i] for i in keep], how, rx[keep],
-                                                len(rows), sub.get("streams", {}), np.asarray(keep))
+                        decoded[topic] = conv.decoded_stream(topic, msgtype, head, rx, rows, stream, f"{source}:{topic}")
                     out.setdefault(stream, []).append(decoded[topic])
             return out
         finally:
@@ -301,7 +299,10 @@ def read_streams(path: str | Path, topics: dict[str, str] | None = None, wanted:
 
 
 def _record(meta: dict, stream: str, s: Stream, t0_ns: int, source: str) -> None:
-    """Counts and notes of a chosen topic: what it read (including messages its stamps could not order)."""
+    """Counts and notes of a chosen topic: what it read (including messages its stamps could not order and those
+    written twice, warned about here), and, but for an IMU (whose steps :func:`graphnav.io.bag_convert.imu` says),
+    the messages stamped on the point of the one before them, doubted
+    (:func:`graphnav.core.screening.say_close_samples`), as a log's rows are."""
     t = (s.t_ns - t0_ns) / 1e9
     dropped = s.n_read - len(t)
     count_read(meta, stream, np.concatenate([t, np.full(dropped, np.nan)]), f"{source}:{s.topic} ({s.msgtype})",
@@ -311,6 +312,9 @@ def _record(meta: dict, stream: str, s: Stream, t0_ns: int, source: str) -> None
             count_refused(meta, stream, reason, n)
         for note in entry["notes"]:
             add_note(meta, stream, note)
+    conv.warn_written_twice(s, t0_ns, source)
+    if stream != "imu":
+        say_close_samples(t, None, f"{source}:{s.topic}", stream, meta, where=conv.messages(s, t0_ns), stacklevel=4)
 
 
 def _heading_stream(streams: dict[str, list[Stream]], topics: dict[str, str], imu_topic: str, source: str,
