@@ -46,6 +46,7 @@ from __future__ import annotations
 import bisect
 import math
 import re
+import statistics
 import warnings
 from collections import deque
 from collections.abc import Callable
@@ -1194,21 +1195,67 @@ class RecentRepeats:
     repeating the one before at its stamp may be a sample (an IMU at rest with coarse counts) or is written again."""
 
     def __init__(self):
-        self._steps: deque[tuple[int, int]] = deque(maxlen=REPEAT_WINDOW_STEPS)     # (within a stamp, equal), 0 or 1
-        self._counts = np.zeros((2, 2), int)                            # [within, equal]
+        self._steps: deque[int] = deque(maxlen=REPEAT_WINDOW_STEPS)     # 2 * within a stamp + equal
+        self._counts = [0, 0, 0, 0]         # by that index: plain ints, as a 100 Hz stream adds one at every sample
 
     def add(self, within: bool, equal: bool) -> None:
         """Count a step to the newest sample: at the stamp before it (``within``), repeating it (``equal``)."""
-        if len(self._steps) == self._steps.maxlen:
-            self._counts[self._steps[0]] -= 1
-        step = int(within), int(equal)
-        self._steps.append(step)
-        self._counts[step] += 1
+        steps, counts = self._steps, self._counts
+        if len(steps) == REPEAT_WINDOW_STEPS:
+            counts[steps[0]] -= 1
+        step = 2 * bool(within) + bool(equal)
+        steps.append(step)
+        counts[step] += 1
 
     def repeat(self) -> bool:
         """Whether the readings repeat across stamps as within them over the window (:func:`repeat_counts_agree`)."""
         c = self._counts
-        return repeat_counts_agree(int(c[1, 1]), int(c[1].sum()), int(c[0, 1]), int(c[0].sum()))
+        return repeat_counts_agree(c[3], c[2] + c[3], c[1], c[0] + c[1])
+
+    def repeat_across(self) -> bool:
+        """:meth:`repeat`, and the readings repeated across stamps at least once in the window: readings never
+        repeating at a whole step do not (:func:`readings_repeat_near`)."""
+        return bool(self._counts[1]) and self.repeat()
+
+
+#: Positive steps of a live stream whose median is its usual step (:class:`NudgedCopies`), and how many it needs first.
+NUDGED_STEP_WINDOW = 101
+NUDGED_MIN_STEPS = 10
+
+
+class NudgedCopies:
+    """:func:`nudged_copies` on a live stream, sample by sample: a sample repeating the one received before it in every
+    value, stamped later by under :data:`NUDGED_COPY_STEP_SHARE` of the median of the latest
+    :data:`NUDGED_STEP_WINDOW` positive steps, is the same sample sent twice, its stamp nudged; unless the stream's
+    readings repeat across whole steps as often as across such short ones over the latest
+    :data:`REPEAT_WINDOW_STEPS` steps (:meth:`RecentRepeats.repeat_across`: an IMU at rest with coarse counts, a depth
+    held on coarse counts, whose samples jitter may move close). Judged once :data:`NUDGED_MIN_STEPS` steps are
+    known; a sample at or before the one before it is left to the stamp checks."""
+
+    def __init__(self):
+        self._last: tuple[float, tuple] | None = None
+        self._steps: deque[float] = deque(maxlen=NUDGED_STEP_WINDOW)
+        self._n = 0                         # positive steps seen
+        self._usual = math.inf              # their median, refreshed every tenth step, s
+        self._repeats = RecentRepeats()     # "within a stamp" here: a step under the share of the usual one
+
+    def is_copy(self, t: float, values: tuple) -> bool:
+        """Whether the sample stamped ``t`` (s) with ``values`` (a tuple of floats, None where there is no value: NaN
+        is never equal) is a copy."""
+        last, self._last = self._last, (t, values)
+        if last is None or not t > last[0]:
+            return False
+        step = t - last[0]
+        equal = values == last[1]
+        self._steps.append(step)
+        self._n += 1
+        if self._n < NUDGED_MIN_STEPS:
+            return False
+        if self._n % 10 == 0:
+            self._usual = statistics.median(self._steps)     # of 101 floats: a sort, faster than numpy's
+        short = step < NUDGED_COPY_STEP_SHARE * self._usual
+        self._repeats.add(short, equal)
+        return short and equal and not self._repeats.repeat_across()
 
 
 def _say_steps(read: np.ndarray, t: np.ndarray, kept_rows: np.ndarray, lines: np.ndarray, source: str, field: str,

@@ -291,7 +291,8 @@ def read_streams(path: str | Path, topics: dict[str, str] | None = None, wanted:
                 for topic in names:
                     if topic not in decoded:
                         msgtype, head, rx, rows = bag.topic(topic)
-                        decoded[topic] = conv.decoded_stream(topic, msgtype, head, rx, rows, stream, f"{source}:{topic}")
+                        decoded[topic] = conv.decoded_stream(topic, msgtype, head, rx, rows, stream,
+                                                             f"{source}:{topic}")
                     out.setdefault(stream, []).append(decoded[topic])
             return out
         finally:
