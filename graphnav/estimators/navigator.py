@@ -24,7 +24,9 @@ What happens to a sample:
    and the completers expect the missing-beam patterns of outages), a DVL ping logged as exactly 0 with no bottom
    lock (:class:`~graphnav.core.screening.ZeroPingTest`: the log's resolution, the run's length or the speed of
    the pings before it; one the past keeps is held until the next ping, whose speed or zeros can refuse its run),
-   a depth outside its range or spiking. Nothing estimated so far changes. When more than half of a stream
+   a depth outside its range or spiking, and a sample of any stream repeating the one received before it in every
+   value a moment later (a sample sent twice, its stamp nudged: :class:`~graphnav.core.screening.NudgedCopies`, as
+   the loaders drop such a row). Nothing estimated so far changes. When more than half of a stream
    was refused, :meth:`Navigator.finish` raises a DataError naming the stream and the reasons.
 2. **Reordering.** Samples wait in a buffer until the newest stamp seen is ``reorder_window_s`` ahead of
    them, then leave in time order (at equal stamps: aiding, then DVL, then IMU). A DVL that reports late by

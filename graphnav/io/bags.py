@@ -30,7 +30,11 @@ overrides the choice. Streams and the types read:
 
 Message definitions: the bag's own (MCAP, rosbag2 >= Iron, ROS 1) first, else :mod:`graphnav.io.bag_msgs`.
 Stamps: :mod:`graphnav.io.bag_stamps` (header stamps when sane, else receive time; DVL/IMU clock offsets
-recorded, never dropped). The mission clock starts at the first IMU stamp (``meta["t0_unix_ns"]``); every stream off
+recorded, never dropped). A message published twice (every value but its header repeating an earlier message's at
+its header stamp, or the message before it under half a step later) is dropped, warned about naming the topic and
+the message, and counted, as a log's row written twice is; another stream's than the IMU's under a fifth of a step
+after the one before with other values is kept and doubted (:func:`graphnav.io.bag_convert.decoded_stream`,
+:func:`_record`). The mission clock starts at the first IMU stamp (``meta["t0_unix_ns"]``); every stream off
 the IMU's clock is moved onto it through the receive clock (:func:`_onto_imu_clock`). What each
 stream read, used and refused, and every repair, is in ``meta["streams"]``.
 
@@ -506,6 +510,7 @@ def load_odometry(path: str | Path, topic: str | None = None):
     from graphnav.core.solution import NavSolution
     found = read_streams(path, {"gt": topic} if topic else {}, wanted=("gt",), required=("gt",))["gt"]
     s = found[0] if topic else _pick_one("gt", found, str(path))
+    conv.warn_written_twice(s, 0, str(path))
     gt = conv.gt(s, 0, str(path))
     child_frd = conv.frame_is(s.rows[0].child_frame_id, "_frd")
     B = np.eye(3) if child_frd else FLU_FRD
