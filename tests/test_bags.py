@@ -878,3 +878,75 @@ def test_a_noisier_dvl_off_its_header_stamps_is_warned_naming_the_offset_and_a_c
                                          r"-29\.9\d\d s, .* give dvl_time_offset_s -29\.9\d\d", clock[0])
     assert "csv_columns" not in clock[0]
     assert m.meta["streams"]["dvl"]["doubted"] == {CLOCK_NOT_FOUND: len(noisy_sim.dvl.t)}
+
+
+def _published_twice(clean, path, copies):
+    """``clean`` rewritten to ``path`` with messages published again: ``copies`` {topic: [(index in the topic, header
+    stamp ns later, receive time ns later, change of the copy or None)]}, each written after its original."""
+    from rosbags.highlevel import AnyReader
+    store = bags.typestore()
+    rows, seen = [], {}
+    with AnyReader([clean], default_typestore=store) as reader:
+        for conn, t_ns, raw in reader.messages():
+            k = seen[conn.topic] = seen.get(conn.topic, -1) + 1
+            rows.append((t_ns, conn.topic, conn.msgtype, raw))
+            for index, header_ns, receive_ns, change in copies.get(conn.topic, []):
+                if index == k:
+                    msg = store.deserialize_cdr(raw, conn.msgtype)
+                    ns = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec + header_ns
+                    msg.header.stamp.sec, msg.header.stamp.nanosec = ns // 1_000_000_000, ns % 1_000_000_000
+                    if change:
+                        change(msg)
+                    rows.append((t_ns + receive_ns, conn.topic, conn.msgtype, store.serialize_cdr(msg, conn.msgtype)))
+    rows.sort(key=lambda r: r[0])
+    return _bag_with(path.parent, path.name, [(topic, typ, t_ns, store.deserialize_cdr(raw, typ))
+                                              for t_ns, topic, typ, raw in rows], store)
+
+
+def test_imu_and_dvl_messages_published_twice_are_dropped_or_doubted_naming_the_topic_and_message(sim, tmp_path):
+    """An IMU and a DVL message published again 1 ms later with the same values were fused as two samples with no word
+    (the ping weighed twice: the end position 9 cm off the clean bag's in 40 s), and one published again at the same
+    header stamp put the whole topic on the recorder's receive time: now the copies are dropped as a log's rows
+    written twice are, warned about naming the topic and the message, and counted, the header stamps kept; a DVL
+    message 1 ms after another with other values is kept and doubted, as a log's row."""
+    import warnings
+    from graphnav.core.screening import CLOSE_SAMPLES, EXACT_COPY, NUDGED_COPY
+    mission, config, paths, _ = sim
+    clean = load_mission(paths["mcap"], config, prepare=False)
+    ms = 1_000_000
+
+    def load(name, copies):
+        path = _published_twice(paths["mcap"], tmp_path / name, copies)
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            m = load_mission(path, config, prepare=False)
+        return path, m, [str(w.message) for w in caught if "row(s)" in str(w.message)]
+
+    t_imu, t_dvl = clean.imu.t[2000], clean.dvl.t[20]
+    for name, header_ns, reason, said in (
+            ("nudged", ms, NUDGED_COPY, "repeating the row before them in every value up to 1 ms later (the same "
+                                        "sample written twice, its stamp nudged) dropped, at message {i} (t = {t})"),
+            ("same_stamp", 0, EXACT_COPY, "repeating an earlier row exactly (same stamp and values) dropped, at "
+                                          "message {i} (t = {t})")):
+        path, m, warned = load(name, {"/imu/data": [(2000, header_ns, ms, None)],
+                                      "/dvl/data": [(20, header_ns, ms, None)]})
+        np.testing.assert_array_equal(m.imu.t, clean.imu.t)
+        np.testing.assert_array_equal(m.imu.f_b, clean.imu.f_b)
+        np.testing.assert_array_equal(m.dvl.t, clean.dvl.t)
+        np.testing.assert_array_equal(m.dvl.valid, clean.dvl.valid)
+        assert m.meta["clock"]["stamps"] == {"imu": "header", "dvl": "header", "depth": "header"}
+        for stream, topic, i, t in (("imu", "/imu/data", 2001, t_imu), ("dvl", "/dvl/data", 21, t_dvl)):
+            assert m.meta["streams"][stream]["read"] == clean.meta["streams"][stream]["read"] + 1
+            assert m.meta["streams"][stream]["refused"] == {reason: 1}
+            text = said.format(i=i, t=f"{t + header_ns / 1e9:.3f} s")
+            assert f"{path}:{topic}: 1 row(s) {text}" in warned, warned
+        assert "doubted" not in m.meta["streams"]["imu"]
+    # other values 1 ms later: two samples where the DVL makes one, both kept and doubted
+    def other(msg):
+        msg.beam_velocity = (msg.beam_velocity + np.float32(0.02)).astype(np.float32)
+
+    path, m, warned = load("other", {"/dvl/data": [(20, ms, ms, other)]})
+    assert len(m.dvl.t) == len(clean.dvl.t) + 1 and m.dvl.t[21] == pytest.approx(t_dvl + 1e-3, abs=1e-9)
+    assert m.meta["streams"]["dvl"]["doubted"] == {CLOSE_SAMPLES: 1} and not m.meta["streams"]["dvl"]["refused"]
+    assert any(w.startswith(f"{path}:/dvl/data: 1 dvl row(s) stamped under a fifth of the median step")
+               and f"at message 21 (t = {t_dvl + 1e-3:.3f} s)" in w for w in warned), warned

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import re
 import warnings
 from pathlib import Path
 
@@ -399,3 +400,32 @@ def test_an_estimator_started_from_the_sensors_counts_the_alignment_data_once(ba
 
     for e in live[::20]:
         assert heading_sigma(e) == pytest.approx(heading_sigma(ref[e.t]), rel=0.02)
+
+
+def test_imu_and_dvl_samples_sent_again_a_moment_later_are_refused_and_change_nothing(mission):
+    """An IMU sample and a DVL ping sent again 1 ms later with the same values (a driver publishing one sample twice)
+    were taken live as two samples with no word, the ping weighed twice: now each is refused and counted as a log's
+    row written twice is (``NUDGED_COPY``), and the estimates are the clean stream's; a ping 1 ms after another with
+    other values is still taken."""
+    from graphnav.core.screening import NUDGED_COPY
+    m = mission.slice(0, 40)
+    events = list(replay(m))
+    clean = _feed(_navigator(m), events)
+    copied = list(events)
+    i = next(k for k, e in enumerate(copied) if e[0] == "imu" and e[1] > 20.0)
+    j = next(k for k, e in enumerate(copied) if e[0] == "dvl" and e[1] > 25.0)
+    copied.insert(j + 1, ("dvl", copied[j][1] + 0.001, copied[j][2]))
+    copied.insert(i + 1, ("imu", copied[i][1] + 0.001, copied[i][2]))
+    nav = _navigator(m)
+    with pytest.warns(RuntimeWarning, match=r"imu sample at t = \d+\.\d+ s refused \(" + re.escape(NUDGED_COPY)):
+        out = _feed(nav, copied)
+    assert nav.info["refused"] == {"imu": {NUDGED_COPY: 1}, "dvl": {NUDGED_COPY: 1}}
+    assert [e.t for e in out] == [e.t for e in clean]
+    for x, y in zip(out, clean):
+        np.testing.assert_array_equal(x.v_n, y.v_n)
+    beams, valid = events[j][2]
+    other = list(events)
+    other.insert(j + 1, ("dvl", other[j][1] + 0.001, (np.asarray(beams) + 0.02, valid)))
+    nav = _navigator(m)
+    _feed(nav, other)
+    assert nav.info["refused"] == {}

@@ -2882,3 +2882,29 @@ def test_judging_rows_repeating_at_a_shared_stamp_grows_with_the_log_not_its_squ
 
     small, large = calls(24000), calls(96000)
     assert large < 2 * small + 50
+
+
+def test_a_live_stream_refuses_a_sample_sent_again_a_moment_later_not_samples_at_rest_jitter_moved_close():
+    """The live test of samples sent twice (``NudgedCopies``, what the Navigator asks of every stream) judges as
+    ``nudged_copies`` does a file: an IMU at rest in coarse counts on a clock jittering by up to 4 ms repeats its
+    reading across whole periods as often as where jitter moves two samples close, so none is a copy; noisy readings
+    with one sample sent again 1 ms later lose that sample only, and a DVL ping sent again with its invalid beams
+    (None) too."""
+    from graphnav.core.screening import NudgedCopies
+    rng = np.random.default_rng(4)
+    n = 3000
+    t = np.arange(n) * 0.01 + rng.uniform(-0.004, 0.004, n)
+    at_rest = np.round(rng.normal(0.0, 0.02, (n, 6)) / 0.05) * 0.05 + [0, 0, -9.8, 0, 0, 0]
+    close = np.diff(t) < 0.005
+    assert close.sum() > 100 and np.all(at_rest[1:][close] == at_rest[:-1][close], axis=1).sum() > 10
+    test = NudgedCopies()
+    assert not any(test.is_copy(float(a), tuple(x)) for a, x in zip(t, at_rest.tolist()))
+    t = np.arange(n) * 0.01 + rng.uniform(-0.002, 0.002, n)
+    noisy = (at_rest + rng.normal(0.0, 1e-3, (n, 6))).tolist()
+    stamps, rows = np.insert(t, 1001, t[1000] + 0.001).tolist(), noisy[:1001] + [noisy[1000]] + noisy[1001:]
+    test = NudgedCopies()
+    assert [k for k, (a, x) in enumerate(zip(stamps, rows)) if test.is_copy(a, tuple(x))] == [1001]
+    test = NudgedCopies()
+    pings = [(k * 1.0, (float(rng.normal()), None, float(rng.normal()), float(rng.normal()))) for k in range(30)]
+    pings.insert(21, (20.001, pings[20][1]))
+    assert [k for k, (a, x) in enumerate(pings) if test.is_copy(a, x)] == [21]

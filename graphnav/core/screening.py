@@ -46,6 +46,7 @@ from __future__ import annotations
 import bisect
 import math
 import re
+import statistics
 import warnings
 from collections import deque
 from collections.abc import Callable
@@ -961,13 +962,9 @@ def stamp_order(t: np.ndarray, rows: np.ndarray, lines: np.ndarray, source: str,
     one stamp on two different rows can be two streams written into one file."""
     read, rows = np.asarray(t, float), np.asarray(rows, float)
     t = read.copy()
-    order = np.argsort(t, kind="stable")
-    a, b = rows[order][:-1], rows[order][1:]
-    equal = (a == b) | (np.isnan(a) & np.isnan(b))
-    step = np.diff(t[order])
-    copies = np.sort(order[1:][(step == 0) & np.all(equal, axis=1)])
-    stamp = np.all(rows == t[:, None], axis=0)          # the stamp's own column: it differs from stamp to stamp
-    if copies.size and stream == "imu" and readings_repeat(np.all(equal[:, ~stamp], axis=1), step):
+    copies, repeat = exact_copies(t, rows)
+    if copies.size and stream == "imu" and repeat:
+        step = np.diff(np.sort(t))
         samples = samples_sharing_a_stamp(t, copies)
         differ = int(np.sum(step == 0)) - copies.size
         if meta is not None and np.any(samples) and differ <= STUCK_DIFFER_SHARE * np.sum(step == 0):
@@ -981,14 +978,11 @@ def stamp_order(t: np.ndarray, rows: np.ndarray, lines: np.ndarray, source: str,
         copies = copies[~samples]
     dropped = {EXACT_COPY: int(copies.size)} if copies.size else {}
     if copies.size:
-        warnings.warn(f"{source}: {copies.size} row(s) repeating an earlier row exactly (same stamp and values) "
-                      f"dropped, at line(s) {first_lines(lines[copies])}", RuntimeWarning, stacklevel=3)
+        say_exact_copies(copies, source, lines=lines, stacklevel=3)
     nudged, moved = nudged_copies(t, rows)
     if nudged.size:
         dropped[NUDGED_COPY] = int(nudged.size)
-        warnings.warn(f"{source}: {nudged.size} row(s) repeating the row before them in every value up to "
-                      f"{moved * 1e3:.3g} ms later (the same sample written twice, its stamp nudged) dropped, at "
-                      f"line(s) {first_lines(lines[nudged])}", RuntimeWarning, stacklevel=3)
+        say_nudged_copies(nudged, moved, source, lines=lines, stacklevel=3)
         copies = np.union1d(copies, nudged)
     kept = np.delete(np.arange(len(t)), copies)
     if stream == "imu":
@@ -1013,6 +1007,31 @@ def stamp_order(t: np.ndarray, rows: np.ndarray, lines: np.ndarray, source: str,
     return kept[first], {**dropped, REPAIRED_STAMP: int((~first).sum())}, t[kept[first]]
 
 
+def exact_copies(t: np.ndarray, rows: np.ndarray) -> tuple[np.ndarray, bool]:
+    """``(indexes, repeat)``: the indexes (file order, sorted) of the rows (``rows`` (N,k) as read, with their stamps'
+    column; ``t`` (N,) s) equal to the row before them in time in stamp and every value (NaN equal to NaN), and
+    whether the readings repeat from one stamp to the next as often as within a stamp (:func:`readings_repeat`: an
+    IMU's such rows may then be samples sharing a stamp, not copies)."""
+    t, rows = np.asarray(t, float), np.asarray(rows, float)
+    order = np.argsort(t, kind="stable")
+    a, b = rows[order][:-1], rows[order][1:]
+    equal = (a == b) | (np.isnan(a) & np.isnan(b))
+    step = np.diff(t[order])
+    copies = np.sort(order[1:][(step == 0) & np.all(equal, axis=1)])
+    if not copies.size:
+        return copies, False
+    stamp = np.all(rows == t[:, None], axis=0)          # the stamp's own column: it differs from stamp to stamp
+    return copies, readings_repeat(np.all(equal[:, ~stamp], axis=1), step)
+
+
+def say_exact_copies(copies: np.ndarray, source: str, lines: np.ndarray | None = None,
+                     where: list[str] | None = None, stacklevel: int = 2) -> None:
+    """Warn about the rows :func:`exact_copies` found and are dropped (``copies``: their indexes), named by their file
+    ``lines`` or, for a bag's messages, ``where`` (as :func:`located` names them)."""
+    warnings.warn(f"{source}: {copies.size} row(s) repeating an earlier row exactly (same stamp and values) "
+                  f"dropped, at {located(copies, lines, where)}", RuntimeWarning, stacklevel=stacklevel + 1)
+
+
 #: Reason under which rows of a stream other than an IMU stamped close after the row before them are doubted
 #: (:func:`say_close_samples`).
 CLOSE_SAMPLES = "stamped under a fifth of a step after the row before it (kept)"
@@ -1023,10 +1042,11 @@ CLOSE_SAMPLES = "stamped under a fifth of a step after the row before it (kept)"
 SAME_POINT_SHARE = 0.2
 
 
-def say_close_samples(t: np.ndarray, lines: np.ndarray, source: str, stream: str, meta: dict | None) -> None:
+def say_close_samples(t: np.ndarray, lines: np.ndarray | None, source: str, stream: str, meta: dict | None,
+                      where: list[str] | None = None, stacklevel: int = 5) -> None:
     """Warn about and count as doubted (with ``meta``) the rows of a stream's increasing stamps ``t`` (s; ``lines``
-    their file lines) stamped under :data:`SAME_POINT_SHARE` of the median step near them (:func:`usual_steps`) after
-    the row before them: two
+    their file lines, or ``where`` a bag's messages named as :func:`located` names them) stamped under
+    :data:`SAME_POINT_SHARE` of the median step near them (:func:`usual_steps`) after the row before them: two
     samples where the stream makes one (a row written twice with another reading, or two stamped together on
     receipt), both kept, since nothing tells the right one. An IMU's steps are :func:`say_imu_stamp_steps`'."""
     step = np.diff(t)
@@ -1040,7 +1060,7 @@ def say_close_samples(t: np.ndarray, lines: np.ndarray, source: str, stream: str
                     f"({float(np.median(usual[close - 1])):.3g} s) after the row before them (up to {later_ms:.3g} ms "
                     f"later): two samples where the stream makes one (a row written twice with another "
                     f"reading, equal readings where the stream's repeat, or two stamped together), both kept, at "
-                    f"line(s) {first_lines(lines[close])}", CLOSE_SAMPLES, int(close.size), stacklevel=5)
+                    f"{located(close, lines, where)}", CLOSE_SAMPLES, int(close.size), stacklevel=stacklevel)
 
 
 def usual_steps(step: np.ndarray) -> np.ndarray:
@@ -1087,6 +1107,15 @@ def nudged_copies(t: np.ndarray, rows: np.ndarray) -> tuple[np.ndarray, float]:
     if not copy.any():
         return np.zeros(0, int), 0.0
     return np.sort(order[1:][copy]), float(np.max(step[copy]))
+
+
+def say_nudged_copies(nudged: np.ndarray, moved: float, source: str, lines: np.ndarray | None = None,
+                      where: list[str] | None = None, stacklevel: int = 2) -> None:
+    """Warn about the rows :func:`nudged_copies` found (``nudged``: their indexes, ``moved``: the largest nudge, s),
+    named by their file ``lines`` or, for a bag's messages, ``where`` (as :func:`located` names them)."""
+    warnings.warn(f"{source}: {nudged.size} row(s) repeating the row before them in every value up to "
+                  f"{moved * 1e3:.3g} ms later (the same sample written twice, its stamp nudged) dropped, at "
+                  f"{located(nudged, lines, where)}", RuntimeWarning, stacklevel=stacklevel + 1)
 
 
 def readings_repeat_near(equal: np.ndarray, within: np.ndarray, at: np.ndarray) -> np.ndarray:
@@ -1166,21 +1195,67 @@ class RecentRepeats:
     repeating the one before at its stamp may be a sample (an IMU at rest with coarse counts) or is written again."""
 
     def __init__(self):
-        self._steps: deque[tuple[int, int]] = deque(maxlen=REPEAT_WINDOW_STEPS)     # (within a stamp, equal), 0 or 1
-        self._counts = np.zeros((2, 2), int)                            # [within, equal]
+        self._steps: deque[int] = deque(maxlen=REPEAT_WINDOW_STEPS)     # 2 * within a stamp + equal
+        self._counts = [0, 0, 0, 0]         # by that index: plain ints, as a 100 Hz stream adds one at every sample
 
     def add(self, within: bool, equal: bool) -> None:
         """Count a step to the newest sample: at the stamp before it (``within``), repeating it (``equal``)."""
-        if len(self._steps) == self._steps.maxlen:
-            self._counts[self._steps[0]] -= 1
-        step = int(within), int(equal)
-        self._steps.append(step)
-        self._counts[step] += 1
+        steps, counts = self._steps, self._counts
+        if len(steps) == REPEAT_WINDOW_STEPS:
+            counts[steps[0]] -= 1
+        step = 2 * bool(within) + bool(equal)
+        steps.append(step)
+        counts[step] += 1
 
     def repeat(self) -> bool:
         """Whether the readings repeat across stamps as within them over the window (:func:`repeat_counts_agree`)."""
         c = self._counts
-        return repeat_counts_agree(int(c[1, 1]), int(c[1].sum()), int(c[0, 1]), int(c[0].sum()))
+        return repeat_counts_agree(c[3], c[2] + c[3], c[1], c[0] + c[1])
+
+    def repeat_across(self) -> bool:
+        """:meth:`repeat`, and the readings repeated across stamps at least once in the window: readings never
+        repeating at a whole step do not (:func:`readings_repeat_near`)."""
+        return bool(self._counts[1]) and self.repeat()
+
+
+#: Positive steps of a live stream whose median is its usual step (:class:`NudgedCopies`), and how many it needs first.
+NUDGED_STEP_WINDOW = 101
+NUDGED_MIN_STEPS = 10
+
+
+class NudgedCopies:
+    """:func:`nudged_copies` on a live stream, sample by sample: a sample repeating the one received before it in every
+    value, stamped later by under :data:`NUDGED_COPY_STEP_SHARE` of the median of the latest
+    :data:`NUDGED_STEP_WINDOW` positive steps, is the same sample sent twice, its stamp nudged; unless the stream's
+    readings repeat across whole steps as often as across such short ones over the latest
+    :data:`REPEAT_WINDOW_STEPS` steps (:meth:`RecentRepeats.repeat_across`: an IMU at rest with coarse counts, a depth
+    held on coarse counts, whose samples jitter may move close). Judged once :data:`NUDGED_MIN_STEPS` steps are
+    known; a sample at or before the one before it is left to the stamp checks."""
+
+    def __init__(self):
+        self._last: tuple[float, tuple] | None = None
+        self._steps: deque[float] = deque(maxlen=NUDGED_STEP_WINDOW)
+        self._n = 0                         # positive steps seen
+        self._usual = math.inf              # their median, refreshed every tenth step, s
+        self._repeats = RecentRepeats()     # "within a stamp" here: a step under the share of the usual one
+
+    def is_copy(self, t: float, values: tuple) -> bool:
+        """Whether the sample stamped ``t`` (s) with ``values`` (a tuple of floats, None where there is no value: NaN
+        is never equal) is a copy."""
+        last, self._last = self._last, (t, values)
+        if last is None or not t > last[0]:
+            return False
+        step = t - last[0]
+        equal = values == last[1]
+        self._steps.append(step)
+        self._n += 1
+        if self._n < NUDGED_MIN_STEPS:
+            return False
+        if self._n % 10 == 0:
+            self._usual = statistics.median(self._steps)     # of 101 floats: a sort, faster than numpy's
+        short = step < NUDGED_COPY_STEP_SHARE * self._usual
+        self._repeats.add(short, equal)
+        return short and equal and not self._repeats.repeat_across()
 
 
 def _say_steps(read: np.ndarray, t: np.ndarray, kept_rows: np.ndarray, lines: np.ndarray, source: str, field: str,

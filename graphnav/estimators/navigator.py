@@ -24,7 +24,9 @@ What happens to a sample:
    and the completers expect the missing-beam patterns of outages), a DVL ping logged as exactly 0 with no bottom
    lock (:class:`~graphnav.core.screening.ZeroPingTest`: the log's resolution, the run's length or the speed of
    the pings before it; one the past keeps is held until the next ping, whose speed or zeros can refuse its run),
-   a depth outside its range or spiking. Nothing estimated so far changes. When more than half of a stream
+   a depth outside its range or spiking, and a sample of any stream repeating the one received before it in every
+   value a moment later (a sample sent twice, its stamp nudged: :class:`~graphnav.core.screening.NudgedCopies`, as
+   the loaders drop such a row). Nothing estimated so far changes. When more than half of a stream
    was refused, :meth:`Navigator.finish` raises a DataError naming the stream and the reasons.
 2. **Reordering.** Samples wait in a buffer until the newest stamp seen is ``reorder_window_s`` ahead of
    them, then leave in time order (at equal stamps: aiding, then DVL, then IMU). A DVL that reports late by
@@ -65,7 +67,8 @@ from graphnav.core.dvl import ping_speed
 from graphnav.core.earth import EarthModel
 from graphnav.core.errors import ConfigError, DataError
 from graphnav.core.mission import MAX_DVL_SPEED_MPS
-from graphnav.core.screening import EXACT_COPY, MAX_REFUSED_FRACTION, NO_BOTTOM_LOCK, RecentRepeats, StreamScreen
+from graphnav.core.screening import (EXACT_COPY, MAX_REFUSED_FRACTION, NO_BOTTOM_LOCK, NUDGED_COPY, NudgedCopies,
+                                     RecentRepeats, StreamScreen)
 from graphnav.estimators.align import AlignOptions
 from graphnav.estimators.backends import BACKENDS, make_backend
 from graphnav.estimators.coasting import CoastingMonitor, SigmaMonitor
@@ -194,6 +197,7 @@ class Navigator:
         self._last_imu_released = -math.inf
         self._last_imu_in: tuple | None = None      # the latest IMU sample received (t, f, w), for a copy of it
         self._imu_repeats = RecentRepeats()         # how often its readings repeat, within and across stamps
+        self._nudged = {k: NudgedCopies() for k in STREAM_ORDER}     # samples sent again a moment later
         self._latest: EpochEstimate | None = None
         self._prop: tuple | None = None             # cached propagation for state_at
         self._pim_params = preintegration_params(config, graph_options or GraphOptions())
@@ -257,6 +261,8 @@ class Navigator:
         if self._imu_copy(t, f, w):
             return self._refuse("imu", t, EXACT_COPY, "the same stamp and values as the sample before it (a sample "
                                 "written again; its readings differ from stamp to stamp)", screened=True)
+        if self._sent_twice("imu", t, f + w):
+            return []
         packets = self._packets
         samples = packets.add(t, f, w, self._released)
         if packets.deciding and t > self._newest:   # held while its first steps decide: the other streams go on
@@ -283,6 +289,16 @@ class Navigator:
         within, equal = t == last[0], sample[1:] == last[1:]
         self._imu_repeats.add(within, equal)
         return within and equal and not self._imu_repeats.repeat()
+
+    def _sent_twice(self, stream: str, t: float, values: tuple) -> bool:
+        """Whether a sample of ``stream`` (stamp ``t`` s, ``values`` a tuple of floats) repeats the one received before
+        it in every value a moment later (:class:`~graphnav.core.screening.NudgedCopies`, as
+        :func:`~graphnav.core.screening.nudged_copies` offline): refused and counted under ``NUDGED_COPY`` when so."""
+        if not self._nudged[stream].is_copy(t, values):
+            return False
+        self._refuse(stream, t, NUDGED_COPY, "the same values as the sample received before it under half the "
+                     "stream's usual step later (a sample sent again, its stamp nudged)", screened=True)
+        return True
 
     def _queue_packet(self, samples: list) -> list[EpochEstimate]:
         """The IMU samples :class:`PacketStamps` let out into the reorder buffer, and those of a driver read it
@@ -326,7 +342,8 @@ class Navigator:
         if bad.any():
             return self._refuse("dvl", t, "beams", f"beam {int(np.flatnonzero(bad)[0]) + 1} is marked valid but "
                                 "not finite")
-        if not self._accept("dvl", t):
+        if self._sent_twice("dvl", t, tuple(float(x) if ok else None for x, ok in zip(b, v))) \
+                or not self._accept("dvl", t):
             return []
         return self._zero_judged("dvl", t, np.where(v, b, np.nan), (b, v))
 
@@ -351,7 +368,8 @@ class Navigator:
         if len(s) != 3 or not all(a > 0 and math.isfinite(a) or math.isnan(a) for a in s):
             return self._refuse("dvl_velocity", t, "sigma", f"expected 3 values > 0 (m/s; NaN: the configured one), "
                                 f"got {list(s)}")
-        if not self._accept("dvl_velocity", t):
+        if (self._sent_twice("dvl_velocity", t, v + tuple(None if math.isnan(a) else a for a in s))
+                or not self._accept("dvl_velocity", t)):
             return []
         return self._zero_judged("dvl_velocity", t, v, (v, s))
 
@@ -359,7 +377,7 @@ class Navigator:
         """Depth of the IMU (m, positive down) from a pressure sensor."""
         self.received["depth"] = self.received.get("depth", 0) + 1
         d = self._scalar("depth", t, "depth_m", depth_m)
-        if d is None or not self._accept("depth", t):
+        if d is None or self._sent_twice("depth", t, (d,)) or not self._accept("depth", t):
             return []
         why = self._screen.depth_problem(t, d)
         if why is not None:
@@ -372,7 +390,7 @@ class Navigator:
         1-sigma of ``sigma_m`` (m) per horizontal axis."""
         self.received["fix"] = self.received.get("fix", 0) + 1
         vals = [self._scalar("fix", t, name, x) for name, x in (("lat", lat), ("lon", lon), ("sigma_m", sigma_m))]
-        if any(v is None for v in vals) or not self._accept("fix", t):
+        if any(v is None for v in vals) or self._sent_twice("fix", t, tuple(vals)) or not self._accept("fix", t):
             return []
         if vals[2] <= 0:
             return self._refuse("fix", t, "sigma_m", f"must be > 0, got {vals[2]}")
@@ -383,7 +401,8 @@ class Navigator:
         above) with 1-sigma ``sigma`` (rad)."""
         self.received["heading"] = self.received.get("heading", 0) + 1
         vals = [self._scalar("heading", t, name, x) for name, x in (("yaw", yaw), ("sigma", sigma))]
-        if any(v is None for v in vals) or not self._accept("heading", t):
+        if (any(v is None for v in vals) or self._sent_twice("heading", t, tuple(vals))
+                or not self._accept("heading", t)):
             return []
         if vals[1] <= 0:
             return self._refuse("heading", t, "sigma", f"must be > 0, got {vals[1]}")

@@ -19,7 +19,8 @@ from graphnav.core.errors import ConfigError, DataError
 from graphnav.core.mission import (MAX_DVL_SPEED_MPS, MAX_FIX_SIGMA_M, DepthData, DvlData, GroundTruth, HeadingData,
                                    ImuData, PositionFixData, no_beams)
 from graphnav.core.rotations import C_NED_ENU
-from graphnav.core.screening import located, say_imu_stamp_steps
+from graphnav.core.screening import (EXACT_COPY, NUDGED_COPY, exact_copies, located, nudged_copies, say_exact_copies,
+                                     say_imu_stamp_steps, say_nudged_copies)
 from graphnav.core.streams import add_note, count_refused
 from graphnav.io import bag_fields
 from graphnav.io.bag_msgs import MARINE_DVL, WL_DVL
@@ -77,12 +78,102 @@ class Stream:
     n_read: int = 0
     log: dict = field(default_factory=dict)
     index: np.ndarray | None = None
+    #: the messages dropped as published twice (:func:`decoded_stream`): reason -> (their indexes in the topic, their
+    #: stamps ns, the largest nudge s), warned about when the topic is used
+    twice: dict = field(default_factory=dict)
 
 
 def messages(s: Stream, t0_ns: int) -> list[str]:
     """Each message of ``s`` named for a warning: its index in the topic and its time on the mission's clock."""
     index = np.arange(len(s.rows)) if s.index is None else s.index
-    return [f"message {int(i)} (t = {t:.3f} s)" for i, t in zip(index, _rel(s, t0_ns))]
+    return _named(index, s.t_ns, t0_ns)
+
+
+def _named(index: np.ndarray, t_ns: np.ndarray, t0_ns: int) -> list[str]:
+    return [f"message {int(i)} (t = {t:.3f} s)" for i, t in zip(index, (np.asarray(t_ns) - t0_ns) / 1e9)]
+
+
+def message_values(rows: list) -> np.ndarray:
+    """(N,k) every number each decoded message holds but its header (the stamp and, in ROS 1, a sequence number that
+    a message published again changes), in field order, with each array's length; rows shorter than the longest
+    padded with NaN. Strings (frame ids) are left out."""
+    values = [_numbers(m, []) for m in rows]
+    width = max((len(v) for v in values), default=0)
+    out = np.full((len(values), width), np.nan)
+    for i, v in enumerate(values):
+        out[i, :len(v)] = v
+    return out
+
+
+def _numbers(msg, out: list) -> list:
+    for name in msg.__dataclass_fields__:
+        if name != "header":
+            _number(getattr(msg, name), out)
+    return out
+
+
+def _number(v, out: list) -> None:
+    if isinstance(v, (bool, int, float, np.number)):
+        out.append(float(v))
+    elif isinstance(v, np.ndarray):
+        out.append(float(v.size))
+        out.extend(v.astype(float).ravel().tolist())
+    elif isinstance(v, (list, tuple)):
+        out.append(float(len(v)))
+        for x in v:
+            _number(x, out)
+    elif hasattr(v, "__dataclass_fields__"):
+        _numbers(v, out)
+
+
+def decoded_stream(topic: str, msgtype: str, header_ns: np.ndarray | None, receive_ns: np.ndarray, rows: list,
+                   stream: str, label: str) -> Stream:
+    """The :class:`Stream` of a topic's decoded messages (``rows``, their header stamps ``header_ns`` or None and
+    receive stamps ``receive_ns``, ns) read for ``stream``, without the messages published twice, as a log's rows
+    written twice are dropped (:func:`graphnav.core.screening.stamp_order`), every value compared
+    (:func:`message_values`): one repeating an earlier message exactly at its header stamp
+    (:func:`~graphnav.core.screening.exact_copies`: dropped before the stamps are chosen, so the header stamps stay
+    usable; an IMU's whose readings repeat across stamps as often may be samples sharing a stamp and are left to
+    :func:`~graphnav.io.bag_stamps.choose_stamps`), then, on the stamps chosen, one repeating the message before it a
+    moment later (:func:`~graphnav.core.screening.nudged_copies`). Each is counted in the stream's log and kept in
+    ``Stream.twice`` for the warning when the topic is used (:func:`warn_written_twice`)."""
+    from graphnav.io.bag_stamps import choose_stamps
+    sub: dict = {}
+    twice: dict = {}
+    values = message_values(rows)
+    index = np.arange(len(rows))
+    if header_ns is not None and len(rows) > 2 and np.all(header_ns != 0):
+        t = (header_ns - header_ns[0]) / 1e9
+        copies, repeat = exact_copies(t, np.column_stack([t, values]))
+        if copies.size and not (stream == "imu" and repeat):
+            count_refused(sub, stream, EXACT_COPY, int(copies.size))
+            twice[EXACT_COPY] = (copies, header_ns[copies], 0.0)
+            index = np.delete(index, copies)
+            header_ns, receive_ns, values = header_ns[index], receive_ns[index], values[index]
+    t_ns, keep, how = choose_stamps(header_ns, receive_ns, sub, stream, label)
+    index, values, receive_ns = index[keep], values[keep], receive_ns[keep]
+    if len(t_ns) > 2:
+        t = (t_ns - t_ns[0]) / 1e9
+        copies, moved = nudged_copies(t, np.column_stack([t, values]))
+        if copies.size:
+            count_refused(sub, stream, NUDGED_COPY, int(copies.size))
+            twice[NUDGED_COPY] = (index[copies], t_ns[copies], moved)
+            kept = np.delete(np.arange(len(t_ns)), copies)
+            t_ns, index, receive_ns = t_ns[kept], index[kept], receive_ns[kept]
+    return Stream(topic, msgtype, t_ns, [rows[i] for i in index], how, receive_ns, len(rows), sub.get("streams", {}),
+                  index, twice)
+
+
+def warn_written_twice(s: Stream, t0_ns: int, source: str) -> None:
+    """The warnings of the messages :func:`decoded_stream` dropped as published twice, each named by its index in
+    the topic and its time on the mission's clock."""
+    for reason, (index, t_ns, moved) in s.twice.items():
+        where = _named(index, t_ns, t0_ns)
+        at = np.arange(index.size)
+        if reason == EXACT_COPY:
+            say_exact_copies(at, f"{source}:{s.topic}", where=where, stacklevel=3)
+        else:
+            say_nudged_copies(at, moved, f"{source}:{s.topic}", where=where, stacklevel=3)
 
 
 def frame_is(frame_id: str, suffix: str) -> bool:

@@ -30,7 +30,11 @@ overrides the choice. Streams and the types read:
 
 Message definitions: the bag's own (MCAP, rosbag2 >= Iron, ROS 1) first, else :mod:`graphnav.io.bag_msgs`.
 Stamps: :mod:`graphnav.io.bag_stamps` (header stamps when sane, else receive time; DVL/IMU clock offsets
-recorded, never dropped). The mission clock starts at the first IMU stamp (``meta["t0_unix_ns"]``); every stream off
+recorded, never dropped). A message published twice (every value but its header repeating an earlier message's at
+its header stamp, or the message before it under half a step later) is dropped, warned about naming the topic and
+the message, and counted, as a log's row written twice is; another stream's than the IMU's under a fifth of a step
+after the one before with other values is kept and doubted (:func:`graphnav.io.bag_convert.decoded_stream`,
+:func:`_record`). The mission clock starts at the first IMU stamp (``meta["t0_unix_ns"]``); every stream off
 the IMU's clock is moved onto it through the receive clock (:func:`_onto_imu_clock`). What each
 stream read, used and refused, and every repair, is in ``meta["streams"]``.
 
@@ -53,6 +57,7 @@ from graphnav.core.config import SensorConfig
 from graphnav.core.errors import ConfigError, DataError
 from graphnav.core.imu_timing import shown_rate_hz
 from graphnav.core.mission import Mission
+from graphnav.core.screening import say_close_samples
 from graphnav.core.streams import add_note, count_read, count_refused, set_span
 from graphnav.io import bag_convert as conv
 from graphnav.io import bag_fields
@@ -266,9 +271,9 @@ def read_streams(path: str | Path, topics: dict[str, str] | None = None, wanted:
                  required: tuple[str, ...] = REQUIRED_STREAMS, meta: dict | None = None, dvl_fields: dict | None = None
                  ) -> dict[str, list[Stream]]:
     """Stream -> the decoded candidate topics (the override alone when given), stamps chosen per topic by
-    :func:`graphnav.io.bag_stamps.choose_stamps`; notes and counts go to ``meta``. ``dvl_fields``: the
+    :func:`graphnav.io.bag_stamps.choose_stamps`, messages published twice dropped
+    (:func:`graphnav.io.bag_convert.decoded_stream`); notes and counts go to ``meta``. ``dvl_fields``: the
     configuration's ``bag_topics.dvl`` (:mod:`graphnav.io.bag_fields`), whose topic is the DVL's."""
-    from graphnav.io.bag_stamps import choose_stamps
     path = Path(path)
     source = str(path)
     meta = {} if meta is None else meta
@@ -290,10 +295,8 @@ def read_streams(path: str | Path, topics: dict[str, str] | None = None, wanted:
                 for topic in names:
                     if topic not in decoded:
                         msgtype, head, rx, rows = bag.topic(topic)
-                        sub: dict = {}
-                        t_ns, keep, how = choose_stamps(head, rx, sub, stream, f"{source}:{topic}")
-                        decoded[topic] = Stream(topic, msgtype, t_ns, [rows[i] for i in keep], how, rx[keep],
-                                                len(rows), sub.get("streams", {}), np.asarray(keep))
+                        decoded[topic] = conv.decoded_stream(topic, msgtype, head, rx, rows, stream,
+                                                             f"{source}:{topic}")
                     out.setdefault(stream, []).append(decoded[topic])
             return out
         finally:
@@ -301,7 +304,10 @@ def read_streams(path: str | Path, topics: dict[str, str] | None = None, wanted:
 
 
 def _record(meta: dict, stream: str, s: Stream, t0_ns: int, source: str) -> None:
-    """Counts and notes of a chosen topic: what it read (including messages its stamps could not order)."""
+    """Counts and notes of a chosen topic: what it read (including messages its stamps could not order and those
+    written twice, warned about here), and, but for an IMU (whose steps :func:`graphnav.io.bag_convert.imu` says),
+    the messages stamped on the point of the one before them, doubted
+    (:func:`graphnav.core.screening.say_close_samples`), as a log's rows are."""
     t = (s.t_ns - t0_ns) / 1e9
     dropped = s.n_read - len(t)
     count_read(meta, stream, np.concatenate([t, np.full(dropped, np.nan)]), f"{source}:{s.topic} ({s.msgtype})",
@@ -311,6 +317,9 @@ def _record(meta: dict, stream: str, s: Stream, t0_ns: int, source: str) -> None
             count_refused(meta, stream, reason, n)
         for note in entry["notes"]:
             add_note(meta, stream, note)
+    conv.warn_written_twice(s, t0_ns, source)
+    if stream != "imu":
+        say_close_samples(t, None, f"{source}:{s.topic}", stream, meta, where=conv.messages(s, t0_ns), stacklevel=4)
 
 
 def _heading_stream(streams: dict[str, list[Stream]], topics: dict[str, str], imu_topic: str, source: str,
@@ -501,6 +510,7 @@ def load_odometry(path: str | Path, topic: str | None = None):
     from graphnav.core.solution import NavSolution
     found = read_streams(path, {"gt": topic} if topic else {}, wanted=("gt",), required=("gt",))["gt"]
     s = found[0] if topic else _pick_one("gt", found, str(path))
+    conv.warn_written_twice(s, 0, str(path))
     gt = conv.gt(s, 0, str(path))
     child_frd = conv.frame_is(s.rows[0].child_frame_id, "_frd")
     B = np.eye(3) if child_frd else FLU_FRD
