@@ -791,6 +791,52 @@ def test_the_clock_search_builds_its_window_model_once_per_load(tmp_path, monkey
     assert m.meta["clock_offsets"]["dvl"]["repeated_at_s"] == pytest.approx(78.1, abs=1.0)
 
 
+@pytest.mark.parametrize("late_s, builds", [(0.0, 2), (60.0, 1)])
+def test_an_akit_dvl_explained_poorly_as_stamped_builds_its_clock_model_once(akit_dir, tmp_path, monkeypatch, late_s,
+                                                                            builds):
+    """Trajectory13 without GT: the IMU explains its DVL poorly at its stamps as read (under MIN_PEAK), so the clock
+    search looks for it further off than the fine search reaches. The stamps' score and the search run as a trial each
+    built the DVL's window model, and 60 s late the search ran again for its warning and notes, building it a third
+    time. The model is built once and the search runs once, its warning given and its note written once, at the same
+    offset. (Published, the other build is the DVL clock fit at the vehicle's offset: the stamps moved 1.02 s.)"""
+    import shutil
+
+    from graphnav.calibration import clock
+    from graphnav.io.loaders import akit_files
+    built, searched = [], []
+    dvl_window_model, align = clock.dvl_window_model, clock.align_stream_clocks
+
+    def counted_build(*args, **kwargs):
+        built.append(kwargs.get("trim"))
+        return dvl_window_model(*args, **kwargs)
+
+    def counted_search(*args, **kwargs):
+        searched.append(args[1].source)
+        return align(*args, **kwargs)
+    monkeypatch.setattr(clock, "dvl_window_model", counted_build)
+    monkeypatch.setattr(clock, "align_stream_clocks", counted_search)
+    files = akit_files(akit_dir / "Trajectory13")
+    dst = tmp_path / "Trajectory13"
+    dst.mkdir()
+    for kind in ("IMU", "DVL"):
+        shutil.copy(files[kind], dst / files[kind].name)
+    shift_file_stamps(dst / files["DVL"].name, late_s)
+    with warnings.catch_warnings(record=True) as said:
+        warnings.simplefilter("always")
+        m = load_akit(dst, imu_axis_signs=(1, -1, 1))
+    assert built == [True] * builds
+    assert len(searched) == 1
+    found = [str(w.message) for w in said if "DVL clock offset" in str(w.message)]
+    noted = [n for n in m.meta["streams"]["dvl"]["notes"] if n.startswith("DVL clock offset")]
+    if late_s:
+        assert len(found) == 1 and re.search(r"DVL clock offset -58\.8\d+ s", found[0])
+        assert noted == [found[0].split(": ", 1)[1]]
+        assert m.config.dvl_time_offset_s == pytest.approx(-58.81, abs=0.01)
+    else:
+        assert not found and not noted
+        assert m.config.dvl_time_offset_s == pytest.approx(1.02)
+
+
 @pytest.mark.parametrize("on, off", [(5, 6), (5, 10), (4, 8)])
 def test_a_dvl_pinging_in_bursts_between_pauses_finds_its_clock(on, off):
     """A DVL pinging in bursts of 4-5 pings between 6-10 s pauses (sharing the water with another acoustic

@@ -436,7 +436,7 @@ def _across_short_gaps(imu, dvl, config, min_overlap_s: float, inside: bool, mod
 
 def align_stream_clocks(imu, dvl, depth=None, meta: dict | None = None, config=None, *,
                         min_overlap_s: float = MIN_OVERLAP_S, field: str = "t",
-                        what_to_do: str = "give dvl_time_offset_s"):
+                        what_to_do: str = "give dvl_time_offset_s", model=None):
     """Put the DVL (and a depth stream from the same instrument) on the IMU clock: ``(dvl, depth)``.
 
     The clock offset is estimated (:func:`estimate_dvl_clock_offset`) and applied when it is confident (for a DVL on
@@ -445,7 +445,8 @@ def align_stream_clocks(imu, dvl, depth=None, meta: dict | None = None, config=N
     fine DVL time-offset calibration, which needs a reference or the graph, and are noted in meta). A depth stream
     with the DVL's source (a DVL's pressure sensor) moves with it. The decision is noted in ``meta["streams"]`` and,
     when applied, warned about; ``meta["clock_offsets"]["dvl"]`` keeps the estimate. ``field``: the stamp column
-    named in an error; ``what_to_do``: how to give the offset, for the error.
+    named in an error; ``what_to_do``: how to give the offset, for the error; ``model``: the :func:`clock_model` of
+    ``imu``, ``dvl`` and ``config`` when built already (the stamps' score before the search shares it).
 
     The search's windows are cut at steps between pings over
     :data:`~graphnav.core.dvl_kinematics.MAX_CLOCK_GAP_S` (:func:`clock_model`); where that finds no confident offset
@@ -460,7 +461,7 @@ def align_stream_clocks(imu, dvl, depth=None, meta: dict | None = None, config=N
     meta = {} if meta is None else meta
     inside = on_the_imu_clock(dvl.t, imu.t)
     try:
-        model = clock_model(imu, dvl, config)
+        model = clock_model(imu, dvl, config) if model is None else model
         est = _searched_offset(imu, dvl, config, min_overlap_s, inside, model)
         if not est.confident and np.any(np.diff(model.t_pings) > model.max_gap_s):
             est = _across_short_gaps(imu, dvl, config, min_overlap_s, inside, model, est, meta)

@@ -21,8 +21,9 @@ import numpy as np
 
 from graphnav.calibration.axes import TURN_ADVICE, mounting_text
 from graphnav.calibration.clock import COARSE_MAX_WINDOWS
-from graphnav.core.dvl_kinematics import (MIN_SCALE_R2, SCALE_OFFSETS_S, WINDOW_S, centred, dvl_velocity_b,
-                                          dvl_window_model, imu_integrals, speed_scale, turn_at, turn_fit)
+from graphnav.core.dvl_kinematics import (MIN_SCALE_R2, SCALE_OFFSETS_S, WINDOW_S, best_speed_fit, centred,
+                                          dvl_velocity_b, dvl_window_model, imu_integrals, speed_scale, turn_at,
+                                          turn_fit)
 from graphnav.core.errors import DataError
 from graphnav.core.streams import add_note, count_doubted, say_doubted
 from graphnav.io.dvl_frame import (CARRIED, EARTH_FRAMES, KEPT_AS_DECLARED, KEPT_POINTING_OFF, check_not_earth_frame,
@@ -819,8 +820,7 @@ def check_velocity_against_imu(imu, dvl, config, meta: dict, moved: bool = False
         # the columns listed as the loader's own check lists them
         check_not_earth_frame(*dvl_velocity_b(dvl, config), imu.t, imu.omega_b, dvl.source, field.split(", "),
                               velocity_frame(config, meta), imu.f_b, meta=meta, own_offsets=True)
-    fits = [speed_scale(model, o) for o in SCALE_OFFSETS_S]
-    best = int(np.argmax([np.nan_to_num(f[1], nan=-1.0) for f in fits]))
+    best, fits = best_speed_fit(model, SCALE_OFFSETS_S)
     scale, r2, _ = fits[best]
     # the turn over the windows no outage crosses (MAX_TURN_GAP_S): the scale is a ratio an outage barely moves
     _, turn_r2, yaw = speed_scale(model, SCALE_OFFSETS_S[best], gapless=True)

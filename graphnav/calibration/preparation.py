@@ -67,6 +67,7 @@ from __future__ import annotations
 
 import copy
 import dataclasses
+import sys
 import warnings
 from pathlib import Path
 
@@ -77,7 +78,7 @@ from graphnav.core.dvl_kinematics import dvl_velocity_b, still_velocity_said
 from graphnav.core.earth import gravity_magnitude
 from graphnav.core.errors import ConfigError, DataError
 from graphnav.core.mission import IMU_RATE_TOLERANCE, DepthData, DvlData, GroundTruth, ImuData, Mission, no_beams
-from graphnav.core.streams import add_note, count_doubted, say_doubted, set_span
+from graphnav.core.streams import add_note, count_doubted, say_doubted, set_span, stream_entry
 from graphnav.core.timeseries import on_the_imu_clock, overlap_text
 from graphnav.io.dvl_frame import CARRIED, OFF_ITS_STAMPS
 from graphnav.io.units import judged_velocity_unit, unit_fix
@@ -679,9 +680,9 @@ def _coarse_dvl_clock(imu: ImuData, dvl: DvlData, meta: dict, cfg: SensorConfig)
     from graphnav.calibration.clock import align_stream_clocks
     velocity_only = DvlData(t_dvl, *no_beams(len(t_dvl)), dvl.v_b, source=dvl.source)
 
-    def search(imu_: ImuData, meta_: dict, dvl_: DvlData = velocity_only) -> float:
+    def search(imu_: ImuData, meta_: dict, dvl_: DvlData = velocity_only, model=None) -> float:
         aligned, _ = align_stream_clocks(imu_, dvl_, None, meta_, cfg, field="Time [s]",
-                                         what_to_do=_GIVE_OFFSET.format(kind="DVL", stream="dvl"))
+                                         what_to_do=_GIVE_OFFSET.format(kind="DVL", stream="dvl"), model=model)
         return float(aligned.t[0] - dvl_.t[0])
     if np.mean((t_dvl >= t_imu[0]) & (t_dvl <= t_imu[-1])) >= 0.5:
         return _clock_beyond_the_fine_search(imu, velocity_only, cfg, meta, search), imu
@@ -692,32 +693,53 @@ def _coarse_dvl_clock(imu: ImuData, dvl: DvlData, meta: dict, cfg: SensorConfig)
 
 def _clock_beyond_the_fine_search(imu: ImuData, dvl: DvlData, cfg: SensorConfig, meta: dict, search) -> float:
     """0, or the clock offset (s) of an A-KIT DVL whose pings lie on the IMU span but further off than the fine search
-    reaches (:data:`~graphnav.calibration.reference.DVL_OFFSET_SEARCH_S`): found by ``search(imu, meta)`` where the
-    IMU explains its velocity changes poorly as stamped (under the clock search's ``MIN_PEAK``). 60 s late on a 400 s
-    trajectory, it was refused as a DVL in another frame (with GT) or loaded 60 s off (without). The published files'
-    DVL, about 1 s early, explains -1.3 (Trajectory11) to 0.79 as stamped: the search finds it within the fine
-    search's reach, which is left to take it, so they load as before. Where the search finds no clear offset (a DVL
-    too noisy for its clock: Trajectory13 60 s late with 0.25 m/s of noise loaded 60 s off without a word), the
-    stamps kept are warned about and their pings counted (:data:`CLOCK_NOT_FOUND`), unless the DVL velocity barely
-    changes (a straight steady leg: a note says its clock was not checked)."""
-    from graphnav.calibration.clock import MIN_PEAK, explained_as_stamped
+    reaches (:data:`~graphnav.calibration.reference.DVL_OFFSET_SEARCH_S`): found by ``search(imu, meta, dvl, model)``
+    where the IMU explains its velocity changes poorly as stamped (under the clock search's ``MIN_PEAK``:
+    :func:`_stamps_explained_poorly`, whose window model the search scores). 60 s late on a 400 s trajectory, it was
+    refused as a DVL in another frame (with GT) or loaded 60 s off (without). The published files' DVL, about 1 s
+    early, explains -1.3 (Trajectory11) to 0.79 as stamped: the search finds it within the fine search's reach, which
+    is left to take it, so they load as before. The search runs once, as a trial (:func:`_tried`), whose notes and
+    warnings are the mission's only where its offset is taken. Where it finds no clear offset (a DVL too noisy for
+    its clock: Trajectory13 60 s late with 0.25 m/s of noise loaded 60 s off without a word), the stamps kept are
+    warned about and their pings counted (:data:`CLOCK_NOT_FOUND`), unless the DVL velocity barely changes (a straight
+    steady leg: a note says its clock was not checked)."""
+    from graphnav.calibration.clock import MIN_PEAK
     from graphnav.calibration.reference import DVL_OFFSET_SEARCH_S
-    here = explained_as_stamped(imu, dvl, cfg)
-    if not here < MIN_PEAK:
+    poorly = _stamps_explained_poorly(imu, dvl, cfg)
+    if poorly is None:
         return 0.0
-    est = _trial_estimate(search, imu, dvl, meta)
+    model, here = poorly
+    noted = len(meta.get("streams", {}).get("dvl", {}).get("notes", []))
+    trial = _tried(lambda meta_: search(imu, meta_, dvl, model), meta)
+    est = _estimate_tried(trial)
+    taken = est is not None and est["confident"] and abs(est["offset_s"]) > DVL_OFFSET_SEARCH_S
+    if taken:
+        trial.keep(meta)
     still = est is not None and still_velocity_said(est["peak"], est["rms"])
     if still:
-        # a DVL holding its velocity is not hurt by a clock the IMU cannot check: noted, not counted as doubted
-        add_note(meta, "dvl", f"clock not checked against the IMU: {still}")
+        # a DVL holding its velocity is not hurt by a clock the IMU cannot check: noted, not counted as doubted; before
+        # the notes of a search kept above, which say where it then moved the stamps this note is about
+        stream_entry(meta, "dvl")["notes"].insert(noted, f"clock not checked against the IMU: {still}")
     elif est is not None and not est["confident"]:
         say_doubted(meta, "dvl", dvl.source, f"{_clock_not_found_said(est)}, and the IMU explains {here:.2f} of them "
                     f"at its stamps as read (under {MIN_PEAK:g}): its stamps are kept as read, and a DVL off its clock "
                     "is judged and fused there: give dvl_time_offset_s if it is known", CLOCK_NOT_FOUND, len(dvl.t),
                     stacklevel=4)
-    if est is None or not est["confident"] or abs(est["offset_s"]) <= DVL_OFFSET_SEARCH_S:
-        return 0.0
-    return search(imu, meta)            # again, for its warning and notes
+    return trial.value if taken else 0.0
+
+
+def _stamps_explained_poorly(imu: ImuData, dvl: DvlData, config: SensorConfig) -> tuple[object, float] | None:
+    """``(model, here)`` where the IMU explains the DVL's velocity changes poorly at its stamps as read (``here``, under
+    the clock search's ``MIN_PEAK``: a DVL that may be off its clock), ``model`` the clock search's window model
+    (:func:`graphnav.calibration.clock.clock_model`) it was scored on, for the search to score as well; None where
+    the stamps explain more, or the pings are too few to tell."""
+    from graphnav.calibration.clock import MIN_PEAK, clock_model, explained_as_stamped
+    try:
+        model = clock_model(imu, dvl, config)
+    except DataError:
+        return None
+    here = explained_as_stamped(imu, dvl, config, model=model)
+    return (model, here) if here < MIN_PEAK else None
 
 
 def _akit_imu_frame(cfg: SensorConfig) -> dict:
@@ -844,13 +866,12 @@ def _check_declared_clock(mission: Mission, dvl: DvlData, given: float | None) -
     over every offset keeping the overlap. A DVL 60 s late on a 600 s log was loaded 60 s off, its pings outside the
     IMU span only counted. A log whose velocity changes hide in the DVL noise (-0.07..0.13 explained on simulated
     600 s ones with the default beams) pays the search and is left as declared: no offset is clear."""
-    from graphnav.calibration.clock import (MIN_PEAK, PEAK_EXCLUSION_S, clock_model, estimate_dvl_clock_offset,
-                                            explained_as_stamped)
+    from graphnav.calibration.clock import PEAK_EXCLUSION_S, estimate_dvl_clock_offset
+    poorly = _stamps_explained_poorly(mission.imu, dvl, mission.config)
+    if poorly is None:
+        return
+    model, here = poorly
     try:
-        model = clock_model(mission.imu, dvl, mission.config)       # the stamps' score and the search share it
-        here = explained_as_stamped(mission.imu, dvl, mission.config, model=model)
-        if not here < MIN_PEAK:
-            return
         est = estimate_dvl_clock_offset(mission.imu, dvl, mission.config, model=model)
     except DataError:
         return
@@ -1130,14 +1151,62 @@ def _gyro_finds_the_clock(err: DataError, search, imu: ImuData, dvl: DvlData, co
 
 
 def _trial(run, meta: dict) -> float | None:
-    """``run(meta)`` as a trial: on a copy of ``meta`` and with its warnings ignored (its notes and warnings are not
-    the mission's); None where it fails with a DataError."""
-    try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            return run(copy.deepcopy(meta))
-    except DataError:
-        return None
+    """``run(meta)`` as a trial (:func:`_tried`): its value, None where it fails with a DataError; its notes and
+    warnings are not the mission's."""
+    return _tried(run, meta).value
+
+
+@dataclasses.dataclass
+class _Trial:
+    """What ``run(meta)`` gave as a trial (:func:`_tried`): its ``value`` (None where it failed with a DataError), the
+    copy of ``meta`` it wrote its notes and counts to, and the warnings it gave (caught)."""
+    value: object
+    meta: dict
+    said: list
+
+    def keep(self, meta: dict) -> None:
+        """The trial's notes and counts made ``meta``'s and its warnings given, as if it had run on ``meta``: what a
+        search taken after its trial gives, without searching again."""
+        _made_alike(meta, self.meta)
+        for caught in self.said:
+            _warn_again(caught)
+
+
+def _tried(run, meta: dict) -> _Trial:
+    """``run(meta)`` as a trial: on a copy of ``meta``, its warnings caught, a DataError its value None."""
+    tried = copy.deepcopy(meta)
+    with warnings.catch_warnings(record=True) as said:
+        warnings.simplefilter("always")
+        try:
+            value = run(tried)
+        except DataError:
+            value = None
+    return _Trial(value, tried, said)
+
+
+def _made_alike(meta: dict, tried: dict) -> None:
+    """``meta`` changed in place into ``tried`` (a copy of it a trial wrote to): its dicts and lists are kept, since
+    others hold them (the prepare step's ``facts`` is ``meta["prepare"]``)."""
+    for key in [key for key in meta if key not in tried]:
+        del meta[key]
+    for key, value in tried.items():
+        here = meta.get(key)
+        if isinstance(here, dict) and isinstance(value, dict):
+            _made_alike(here, value)
+        elif isinstance(here, list) and isinstance(value, list):
+            here[:] = value
+        else:
+            meta[key] = value
+
+
+def _warn_again(caught: warnings.WarningMessage) -> None:
+    """A warning a trial caught, given again as from where it was first given: the file and line it names, and its
+    module's name and registry, which the warnings filters and their once-per-place rule see."""
+    module = next((m for m in list(sys.modules.values()) if getattr(m, "__file__", None) == caught.filename), None)
+    scope = vars(module) if module is not None else None
+    warnings.warn_explicit(caught.message, caught.category, caught.filename, caught.lineno,
+                           module=None if scope is None else scope["__name__"],
+                           registry=None if scope is None else scope.setdefault("__warningregistry__", {}))
 
 
 def _unit_finds_the_clock(err: DataError | None, search, imu: ImuData, dvl: DvlData, config: SensorConfig,
@@ -1185,14 +1254,14 @@ def _unit_finds_the_clock(err: DataError | None, search, imu: ImuData, dvl: DvlD
 
 
 def _trial_estimate(search, imu: ImuData, dvl: DvlData, meta: dict) -> dict | None:
-    """The DVL clock ``search(imu, meta, dvl)`` as a :func:`_trial`: its estimate (``clock_offsets["dvl"]``), None
-    where it finds none (a DataError, or too few pings to estimate it)."""
-    tried: list[dict] = []
+    """The DVL clock ``search(imu, meta, dvl)`` as a trial: its estimate (:func:`_estimate_tried`)."""
+    return _estimate_tried(_tried(lambda meta_: search(imu, meta_, dvl), meta))
 
-    def run(meta_: dict) -> float:
-        tried.append(meta_)
-        return search(imu, meta_, dvl)
-    return None if _trial(run, meta) is None else tried[0].get("clock_offsets", {}).get("dvl")
+
+def _estimate_tried(trial: _Trial) -> dict | None:
+    """The estimate of a DVL clock search run as a ``trial`` (its ``clock_offsets["dvl"]``), None where it found none
+    (a DataError, or too few pings to estimate it)."""
+    return None if trial.value is None else trial.meta.get("clock_offsets", {}).get("dvl")
 
 
 def _speed_refused(meta: dict) -> int:

@@ -410,6 +410,14 @@ def speed_scale(model, offset: float = 0.0, gapless: bool = False) -> tuple[floa
     return abs(ab) / max(bb, 1e-300), abs(ab) ** 2 / max(aa * bb, 1e-300), float(np.angle(ab))
 
 
+def best_speed_fit(model, offsets, gapless: bool = False) -> tuple[int, list[tuple[float, float, float]]]:
+    """``(best, fits)``: :func:`speed_scale`'s ``(scale, r2, yaw)`` at each DVL clock offset of ``offsets`` (s; with
+    ``gapless`` as there), and the index of the one whose fit explains most of the velocity's changes (a NaN ``r2``,
+    under two windows, explains none)."""
+    fits = [speed_scale(model, o, gapless) for o in offsets]
+    return int(np.argmax([np.nan_to_num(f[1], nan=-1.0) for f in fits])), fits
+
+
 def _horizontal_sides(model, offset: float, gapless: bool = False):
     """``(a, b)``, complex (win, pings): the DVL side and the IMU side of the clock model's windows inside the IMU
     span at ``offset`` s (``gapless``: only those with no step beyond :data:`MAX_TURN_GAP_S`), each window's ``v0``

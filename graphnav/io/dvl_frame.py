@@ -867,7 +867,7 @@ def turn_against_imu(t_dvl: np.ndarray, v: np.ndarray, t_imu: np.ndarray, f_b: n
     offset among ``offsets`` (s, added to ``t_dvl``) where the fit explains most of the velocity's changes (``r2``,
     :func:`~graphnav.core.dvl_kinematics.speed_scale`'s, which a turn of the velocity leaves as it is: both readings
     of one velocity are judged at one offset); NaN under two windows of pings."""
-    from graphnav.core.dvl_kinematics import dvl_window_model, speed_scale, yaw_sigma
+    from graphnav.core.dvl_kinematics import best_speed_fit, dvl_window_model, yaw_sigma
     from graphnav.core.mission import DvlData, ImuData, no_beams
     ok = np.all(np.isfinite(v), axis=1)
     t, v = np.asarray(t_dvl, float)[ok], np.asarray(v, float)[ok]
@@ -877,9 +877,8 @@ def turn_against_imu(t_dvl: np.ndarray, v: np.ndarray, t_imu: np.ndarray, f_b: n
     except DataError:
         return (float("nan"),) * 4
     offsets = np.atleast_1d(np.asarray(offsets, float))
-    r2 = [speed_scale(model, o, gapless=True)[1] for o in offsets]
-    best = int(np.argmax(np.nan_to_num(r2, nan=-1.0)))
-    return (*yaw_sigma(model, float(offsets[best])), float(offsets[best]), float(r2[best]))
+    best, fits = best_speed_fit(model, offsets, gapless=True)
+    return (*yaw_sigma(model, float(offsets[best])), float(offsets[best]), float(fits[best][1]))
 
 
 #: How far off the nose body-frame columns declared in an earth frame point once turned to body by the heading: forward
