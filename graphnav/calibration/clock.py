@@ -101,6 +101,13 @@ NEAR_REACH_S = 15.0
 #: confident 0.13-0.26 s off, within 1 sigma); a 400 s one with 0.01 m/s beam noise 0.002 s off, sigma 0.056 s;
 #: the 200 s column-map copy of Trajectory1, sigma 0.006 s (read off the cost at 0.01 s then: :func:`_offset_sigma`).
 CLOCK_SIGMA_WARN_S = 0.1
+#: An offset the windows across steps between pings up to MAX_WINDOW_GAP_S find under the clear peak (off its stamps:
+#: a few windows' noise can leave one offset 0.05 ahead of every other) is taken by :func:`_across_short_gaps` only from
+#: at least this many windows' worth of pings. 60 s A-KIT pieces without GT (Trajectory13 from 240 s, a 12-ping outage,
+#: 0.02 and 0.035 m/s noise added, 2 s late) had two such windows, explained 0.11-0.14 and were loaded 16-17 s late
+#: (+16.5 and +15.3 s taken); the simulated logs those windows are for (200-800 s, 30-50 % of pings lost) hold 100-560
+#: pings, 5-28 windows.
+ACROSS_MIN_WINDOWS = 3
 #: The clock fit's sigma reads its cost's curvature and the windows' slopes over this many steps of the IMU grid
 #: (:data:`~graphnav.core.dvl_kinematics.IMU_GRID_S`) each way of the best offset: over the kinks the grid puts in the
 #: cost (:func:`_offset_sigma`).
@@ -452,13 +459,20 @@ def _across_short_gaps(imu, dvl, config, min_overlap_s: float, inside: bool, mod
     :data:`~graphnav.core.dvl_kinematics.MAX_WINDOW_GAP_S` find one confident (noted in ``meta``). A noisy DVL losing
     its pings often for a few seconds has its windows halved by the shorter cut and its peak thinned: 200-800 s
     simulated logs with 0.035 m/s beams, 30 % of their pings lost in runs of 6 (7 s steps) and 5-120 s late, 14 of 36
-    found within 0.14 s on the longer windows were left on their stamps on the shorter."""
+    found within 0.14 s on the longer windows were left on their stamps on the shorter. An offset they find under the
+    clear peak (:attr:`ClockOffset.off_its_stamps`) is taken only from at least :data:`ACROSS_MIN_WINDOWS` windows'
+    worth of pings."""
     wider = _across_short_gaps_model(imu, dvl, config, model)
     try:
         across = _searched_offset(imu, dvl, config, min_overlap_s, inside, wider)
     except DataError:
         return est
     if not across.confident:
+        return est
+    if not across.clear and across.n < ACROSS_MIN_WINDOWS * wider.window:
+        add_note(meta, "dvl", f"windows across steps between pings up to {MAX_WINDOW_GAP_S:g} s put the DVL clock at "
+                 f"{across.describe()}, under the clear peak, on {across.n} pings (fewer than {ACROSS_MIN_WINDOWS} "
+                 "windows' worth): not taken")
         return est
     add_note(meta, "dvl", f"clock offset found on windows across steps between pings up to {MAX_WINDOW_GAP_S:g} s: "
              f"none confident on windows cut at steps over {MAX_CLOCK_GAP_S:g} s (best {est.offset_s:+.3f} s, "
