@@ -112,6 +112,10 @@ ACROSS_MIN_WINDOWS = 3
 #: (:data:`~graphnav.core.dvl_kinematics.IMU_GRID_S`) each way of the best offset: over the kinks the grid puts in the
 #: cost (:func:`_offset_sigma`).
 SIGMA_GRID_STEPS = 4
+#: ... and the windows' spread is taken in from this many windows: two or three windows' slopes say little of it (a
+#: 60 s A-KIT piece with a 13 s outage, Trajectory1 from 240 s, 0.29 s off: sigma 0.83 s with its three windows'
+#: spread, which kept the fit from correcting the DVL's 2 s lag; 0.30 s without, 0.15 s read at 0.01 s).
+SPREAD_MIN_WINDOWS = 4
 
 
 @dataclass
@@ -286,7 +290,8 @@ def _offset_sigma(model, x: float, use: np.ndarray) -> float:
     """1-sigma (s) of the clock fit's offset ``x`` (s) over the pings ``use`` (win, window) of ``model``: the larger
     of the least-squares error of its cost's curvature and the spread of the windows' own pulls on it (the clustered
     sandwich ``sqrt(sum of g_w^2) / curvature``, g_w the slope of window w's SSE at ``x``), the curvature and slopes
-    read over :data:`SIGMA_GRID_STEPS` steps of the IMU grid each way.
+    read over :data:`SIGMA_GRID_STEPS` steps of the IMU grid each way (the spread from :data:`SPREAD_MIN_WINDOWS`
+    windows).
 
     Why not the curvature at ``x`` alone: the IMU's integrals are interpolated linearly on their grid, so the cost has a
     kink wherever the ping stamps cross a grid node (all at once for pings on the IMU's stamps), and the best offset
@@ -296,8 +301,9 @@ def _offset_sigma(model, x: float, use: np.ndarray) -> float:
     near the truth of simulated 300 and 600 s logs with 0.03 and 0.045 m/s beams, 30 or 50 % of their pings lost in
     runs of 3 or at random, seeds 0-9, windows cut at 5 and at 20 s (320 fits): the error over the sigma had an RMS of
     1.5-2.1 per group (6-14 % beyond 3 sigmas) read at 0.01 s, 0.8-1.25 (none beyond 3) read so; 60 s A-KIT pieces
-    with and without an outage against the GT-based offset (720 fits) 2.7-2.9 and 1.7-1.9: there the fit's own
-    departure from the GT's offset (0.05-0.1 s on some trajectories) is no noise a sigma measures."""
+    (two or three windows) with and without an outage against the GT-based offset (720 fits) 2.7-2.9 and 2.0-2.2:
+    there the fit's own departure from the GT's offset (0.05-0.1 s on some trajectories) is no noise a sigma
+    measures."""
     h = SIGMA_GRID_STEPS * float(model.imu.t[1] - model.imu.t[0])
     at = model.sse(x, use)[0]
     fitted = np.isfinite(at)
@@ -305,7 +311,7 @@ def _offset_sigma(model, x: float, use: np.ndarray) -> float:
     at, k = at[fitted], int(fitted.sum())
     curvature = float(np.sum(below) - 2 * np.sum(at) + np.sum(above)) / h ** 2
     least_squares = _sigma_from_curvature(float(np.sum(at)), curvature, 3 * int(use.sum()), 6 * k + 1)
-    if not (curvature > 0 and k > 1):
+    if not (curvature > 0 and k >= SPREAD_MIN_WINDOWS):
         return least_squares
     pulls = (above - below) / (2 * h)
     spread = float(np.sqrt(k / (k - 1) * np.sum(pulls ** 2)) / curvature)
@@ -496,7 +502,8 @@ def align_stream_clocks(imu, dvl, depth=None, meta: dict | None = None, config=N
     The search's windows are cut at steps between pings over
     :data:`~graphnav.core.dvl_kinematics.MAX_CLOCK_GAP_S` (:func:`clock_model`); where that finds no confident offset
     and the DVL has such steps, windows cut only at steps over :data:`~graphnav.core.dvl_kinematics.MAX_WINDOW_GAP_S`
-    are searched as well and their offset taken where confident (noted in ``meta``: :func:`_across_short_gaps`).
+    are searched as well and their offset taken where confident, under the clear peak only from
+    :data:`ACROSS_MIN_WINDOWS` windows' worth of pings (noted in ``meta``: :func:`_across_short_gaps`).
 
     Raises:
         DataError: the DVL is off the IMU clock (:func:`graphnav.core.timeseries.on_the_imu_clock`) and no
