@@ -97,10 +97,25 @@ CLOCK_TAKEN_UNCLEAR = "DVL clock offset taken under the clear peak: its stamps a
 #: pings (none of the 44 under 0.05 was taken before: each beat its next best by less than 0.05).
 NEAR_REACH_S = 15.0
 #: An applied DVL clock offset with a larger sigma (s) says the data barely fix it: a tenth of a 1 s ping period.
-#: Simulated 60-200 s missions (37 s injected, four seeds): 0.06-0.32 s off with sigmas 0.13-0.33 s (the five
-#: confident 0.13-0.26 s off, within 1.6 sigma); a 400 s one with 0.01 m/s beam noise 0.002 s off, sigma 0.055 s;
-#: the 200 s column-map copy of Trajectory1, sigma 0.006 s.
+#: Simulated 60-200 s missions (37 s injected, seeds 0-3): 0.06-0.32 s off with sigmas 0.17-0.48 s (the five
+#: confident 0.13-0.26 s off, within 1 sigma); a 400 s one with 0.01 m/s beam noise 0.002 s off, sigma 0.056 s;
+#: the 200 s column-map copy of Trajectory1, sigma 0.006 s (read off the cost at 0.01 s then: :func:`_offset_sigma`).
 CLOCK_SIGMA_WARN_S = 0.1
+#: An offset the windows across steps between pings up to MAX_WINDOW_GAP_S find under the clear peak (off its stamps:
+#: a few windows' noise can leave one offset 0.05 ahead of every other) is taken by :func:`_across_short_gaps` only from
+#: at least this many windows' worth of pings. 60 s A-KIT pieces without GT (Trajectory13 from 240 s, a 12-ping outage,
+#: 0.02 and 0.035 m/s noise added, 2 s late) had two such windows, explained 0.11-0.14 and were loaded 16-17 s late
+#: (+16.5 and +15.3 s taken); the simulated logs those windows are for (200-800 s, 30-50 % of pings lost) hold 100-560
+#: pings, 5-28 windows.
+ACROSS_MIN_WINDOWS = 3
+#: The clock fit's sigma reads its cost's curvature and the windows' slopes over this many steps of the IMU grid
+#: (:data:`~graphnav.core.dvl_kinematics.IMU_GRID_S`) each way of the best offset: over the kinks the grid puts in the
+#: cost (:func:`_offset_sigma`).
+SIGMA_GRID_STEPS = 4
+#: ... and the windows' spread is taken in from this many windows: two or three windows' slopes say little of it (a
+#: 60 s A-KIT piece with a 13 s outage, Trajectory1 from 240 s, 0.29 s off: sigma 0.83 s with its three windows'
+#: spread, which kept the fit from correcting the DVL's 2 s lag; 0.30 s without, 0.15 s read at 0.01 s).
+SPREAD_MIN_WINDOWS = 4
 
 
 @dataclass
@@ -109,7 +124,8 @@ class ClockOffset:
 
     Attributes:
         offset_s: seconds to add to the DVL stamps to put them on the IMU clock.
-        sigma_s: 1-sigma of the fine estimate (curvature of its least-squares cost), s.
+        sigma_s: 1-sigma of the fine estimate (its least-squares cost's curvature, or the spread of its windows'
+            pulls where larger: :func:`_offset_sigma`), s.
         peak: fraction of the DVL's velocity changes the IMU explains at the offset (1 - SSE / SSE of a
             straight line per window; 1 = all).
         second_peak: the same at the best offset further than :data:`PEAK_EXCLUSION_S` from the peak.
@@ -262,15 +278,44 @@ def estimate_dvl_clock_offset(imu, dvl, config=None, *, min_overlap_s: float = M
         return model.score(o, use)[1]
     res = minimize_scalar(cost, bounds=(lo, hi), method="bounded", options={"xatol": 1e-4})
     x = float(res.x)
-    explained, sse, n_win = model.score(x, use)
+    explained, sse, _ = model.score(x, use)
     pings = int(use.sum())
-    n = pings * 3
-    step = 0.01
-    curvature = (cost(x + step) - 2 * sse + cost(x - step)) / step ** 2
-    sigma = _sigma_from_curvature(sse, curvature, n, 6 * n_win + 1)
-    rms = float(np.sqrt(sse / max(n, 1)))
+    rms = float(np.sqrt(sse / max(3 * pings, 1)))
     overlap = float(min(ints.t[-1], t_dvl[-1] + x) - max(ints.t[0], t_dvl[0] + x))
-    return ClockOffset(x, sigma, max(explained, best), max(second, 0.0), coarse, rms, overlap, pings)
+    return ClockOffset(x, _offset_sigma(model, x, use), max(explained, best), max(second, 0.0), coarse, rms, overlap,
+                       pings)
+
+
+def _offset_sigma(model, x: float, use: np.ndarray) -> float:
+    """1-sigma (s) of the clock fit's offset ``x`` (s) over the pings ``use`` (win, window) of ``model``: the larger
+    of the least-squares error of its cost's curvature and the spread of the windows' own pulls on it (the clustered
+    sandwich ``sqrt(sum of g_w^2) / curvature``, g_w the slope of window w's SSE at ``x``), the curvature and slopes
+    read over :data:`SIGMA_GRID_STEPS` steps of the IMU grid each way (the spread from :data:`SPREAD_MIN_WINDOWS`
+    windows).
+
+    Why not the curvature at ``x`` alone: the IMU's integrals are interpolated linearly on their grid, so the cost has a
+    kink wherever the ping stamps cross a grid node (all at once for pings on the IMU's stamps), and the best offset
+    often lies on one; there a step of 0.01 s read 4-5x the curvature over four grid steps (sigmas 0.12-0.13 s for
+    fits 0.55-0.70 s off). And the residuals within a window are not independent (the velocity enters ``int omega x v``
+    summed, the IMU's noise its integrals), which the windows' spread takes in where it is the larger. Measured on fits
+    near the truth of simulated 300 and 600 s logs with 0.03 and 0.045 m/s beams, 30 or 50 % of their pings lost in
+    runs of 3 or at random, seeds 0-9, windows cut at 5 and at 20 s (320 fits): the error over the sigma had an RMS of
+    1.5-2.1 per group (6-14 % beyond 3 sigmas) read at 0.01 s, 0.8-1.25 (none beyond 3) read so; 60 s A-KIT pieces
+    (two or three windows) with and without an outage against the GT-based offset (720 fits) 2.7-2.9 and 2.0-2.2:
+    there the fit's own departure from the GT's offset (0.05-0.1 s on some trajectories) is no noise a sigma
+    measures."""
+    h = SIGMA_GRID_STEPS * float(model.imu.t[1] - model.imu.t[0])
+    at = model.sse(x, use)[0]
+    fitted = np.isfinite(at)
+    below, above = (model.sse(o, use)[0][fitted] for o in (x - h, x + h))
+    at, k = at[fitted], int(fitted.sum())
+    curvature = float(np.sum(below) - 2 * np.sum(at) + np.sum(above)) / h ** 2
+    least_squares = _sigma_from_curvature(float(np.sum(at)), curvature, 3 * int(use.sum()), 6 * k + 1)
+    if not (curvature > 0 and k >= SPREAD_MIN_WINDOWS):
+        return least_squares
+    pulls = (above - below) / (2 * h)
+    spread = float(np.sqrt(k / (k - 1) * np.sum(pulls ** 2)) / curvature)
+    return float(np.fmax(least_squares, spread))
 
 
 def _beyond_the_near_search(imu, dvl, config, min_overlap_s: float, near: ClockOffset, model) -> ClockOffset:
@@ -420,13 +465,20 @@ def _across_short_gaps(imu, dvl, config, min_overlap_s: float, inside: bool, mod
     :data:`~graphnav.core.dvl_kinematics.MAX_WINDOW_GAP_S` find one confident (noted in ``meta``). A noisy DVL losing
     its pings often for a few seconds has its windows halved by the shorter cut and its peak thinned: 200-800 s
     simulated logs with 0.035 m/s beams, 30 % of their pings lost in runs of 6 (7 s steps) and 5-120 s late, 14 of 36
-    found within 0.14 s on the longer windows were left on their stamps on the shorter."""
+    found within 0.14 s on the longer windows were left on their stamps on the shorter. An offset they find under the
+    clear peak (:attr:`ClockOffset.off_its_stamps`) is taken only from at least :data:`ACROSS_MIN_WINDOWS` windows'
+    worth of pings."""
     wider = _across_short_gaps_model(imu, dvl, config, model)
     try:
         across = _searched_offset(imu, dvl, config, min_overlap_s, inside, wider)
     except DataError:
         return est
     if not across.confident:
+        return est
+    if not across.clear and across.n < ACROSS_MIN_WINDOWS * wider.window:
+        add_note(meta, "dvl", f"windows across steps between pings up to {MAX_WINDOW_GAP_S:g} s put the DVL clock at "
+                 f"{across.describe()}, under the clear peak, on {across.n} pings (fewer than {ACROSS_MIN_WINDOWS} "
+                 "windows' worth): not taken")
         return est
     add_note(meta, "dvl", f"clock offset found on windows across steps between pings up to {MAX_WINDOW_GAP_S:g} s: "
              f"none confident on windows cut at steps over {MAX_CLOCK_GAP_S:g} s (best {est.offset_s:+.3f} s, "
@@ -451,7 +503,8 @@ def align_stream_clocks(imu, dvl, depth=None, meta: dict | None = None, config=N
     The search's windows are cut at steps between pings over
     :data:`~graphnav.core.dvl_kinematics.MAX_CLOCK_GAP_S` (:func:`clock_model`); where that finds no confident offset
     and the DVL has such steps, windows cut only at steps over :data:`~graphnav.core.dvl_kinematics.MAX_WINDOW_GAP_S`
-    are searched as well and their offset taken where confident (noted in ``meta``: :func:`_across_short_gaps`).
+    are searched as well and their offset taken where confident, under the clear peak only from
+    :data:`ACROSS_MIN_WINDOWS` windows' worth of pings (noted in ``meta``: :func:`_across_short_gaps`).
 
     Raises:
         DataError: the DVL is off the IMU clock (:func:`graphnav.core.timeseries.on_the_imu_clock`) and no
