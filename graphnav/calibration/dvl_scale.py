@@ -796,13 +796,15 @@ def check_velocity_against_imu(imu, dvl, config, meta: dict, moved: bool = False
     ``field``: the DVL columns named (default the loader's ``meta["stream_fields"]["dvl"]``); ``fixes``: what the
     messages advise (:data:`DECLARE_DVL_FIXES`, :data:`AKIT_DVL_FIXES`); ``reference``: the mission's reference,
     which says where the vehicle moves when the fits cannot judge the DVL's turn (:func:`warn_dvl_sideways`). A turn
-    beyond 10 deg is read at the best scale's offset (:data:`MAX_YAW_RAD`), each turn over the windows no DVL
-    outage crosses (:data:`~graphnav.core.dvl_kinematics.MAX_TURN_GAP_S`); a few degrees beyond its sigma at the DVL's
-    stamps as they stand (a clock found, given or the vehicle's) is warned about and counted (:data:`MIN_YAW_RAD`,
-    :func:`warn_small_turn`). A velocity the body kinematics kept as body in a current (``meta[CARRIED]``,
-    :func:`graphnav.io.dvl_frame.check_not_earth_frame`) is judged by no mean direction. ``clock_known`` False: the
-    DVL stamps have still to be judged by a clock search (``clock: auto``), so FLU axes are judged at each reading's
-    own best offset too (:func:`check_flu_axes`)."""
+    beyond 10 deg is read at the best scale's offset (:data:`MAX_YAW_RAD`), up to a half turn where another offset
+    fits as well turned back (:func:`~graphnav.core.dvl_kinematics.fits_turned_elsewhere`: a speed swinging with a
+    period), each turn over the windows no DVL outage crosses (:data:`~graphnav.core.dvl_kinematics.MAX_TURN_GAP_S`);
+    a few degrees beyond its sigma at the DVL's stamps as they stand (a clock found, given or the vehicle's) is warned
+    about and counted (:data:`MIN_YAW_RAD`, :func:`warn_small_turn`). A velocity the body kinematics kept as body in a
+    current (``meta[CARRIED]``, :func:`graphnav.io.dvl_frame.check_not_earth_frame`) is judged by no mean direction.
+    ``clock_known`` False: the DVL stamps have still to be judged by a clock search (``clock: auto``), so the turn at
+    them is taken up to a half turn where another offset fits as well turned back, and FLU axes are judged at each
+    reading's own best offset too (:func:`check_flu_axes`)."""
     field = field or meta.get("stream_fields", {}).get("dvl", "velocity")
     try:
         model = judging_model(imu, dvl, config)
