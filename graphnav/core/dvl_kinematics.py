@@ -67,10 +67,11 @@ SCALE_SEARCH_S = 20.0
 #: The DVL offsets (s) the scale and gyro fits take their best of: every 0.5 s within +- SCALE_SEARCH_S.
 SCALE_OFFSETS_S = np.arange(-SCALE_SEARCH_S, SCALE_SEARCH_S + 0.25, 0.5)
 #: A scale fit at an offset whose turn lies over 90 deg from the best's fits as well as the best when it leaves at most
-#: this many times the best's unexplained share (1 - r^2) (:func:`fits_turned_elsewhere`): straight legs at 1 m/s
-#: surging 0.1-0.5 m/s every 8-53 s, half a period inside +- SCALE_SEARCH_S, 1.00-1.11 (seeds 0-2, 1 and 4 cm/s of DVL
-#: noise); half a period beyond it (53 s on time) 5.4-14; on nine of the ten A-KIT trajectories no offset fits turned
-#: so, on the steady Trajectory13 (best r^2 0.61, not judged) 1.96.
+#: this many times the best's unexplained share (1 - r^2) (:func:`fits_turned_elsewhere`). Straight legs at 1 m/s
+#: surging 0.1-0.5 m/s every 8-53 s (seeds 0-2, 1 and 4 cm/s of DVL noise, on time and 8 s late) whose best explains
+#: MIN_SCALE_R2, the only fits judged: 1.00-1.11 with half a period inside +- SCALE_SEARCH_S, 5.4-14 beyond it (53 s on
+#: time); weaker bests (r^2 0.36-0.62) 1.06-1.81. The ten A-KIT trajectories: no offset fits turned on nine, the steady
+#: Trajectory13 (best 0.61, not judged) 1.96.
 TURNED_FIT_RATIO = 1.5
 #: Shortest overlap of the two logs at a candidate clock offset, s ...
 MIN_OVERLAP_S = 60.0
