@@ -21,9 +21,9 @@ import numpy as np
 
 from graphnav.calibration.axes import TURN_ADVICE, mounting_text
 from graphnav.calibration.clock import COARSE_MAX_WINDOWS
-from graphnav.core.dvl_kinematics import (MIN_SCALE_R2, SCALE_OFFSETS_S, WINDOW_S, best_speed_fit, centred,
-                                          dvl_velocity_b, dvl_window_model, imu_integrals, speed_scale, turn_at,
-                                          turn_fit)
+from graphnav.core.dvl_kinematics import (MIN_SCALE_R2, SCALE_OFFSETS_S, SCALE_SEARCH_S, WINDOW_S, best_speed_fit,
+                                          centred, dvl_velocity_b, dvl_window_model, fits_turned_elsewhere,
+                                          imu_integrals, speed_scale, turn_at, turn_fit, within_half_turn)
 from graphnav.core.errors import DataError
 from graphnav.core.streams import add_note, count_doubted, say_doubted
 from graphnav.io.dvl_frame import (CARRIED, EARTH_FRAMES, KEPT_AS_DECLARED, KEPT_POINTING_OFF, check_not_earth_frame,
@@ -149,14 +149,21 @@ def judging_model(imu, dvl, config, **kwargs):
     return model
 
 
-def flu_fit_ratio(read, imu, dvl, config, offset: float = 0.0) -> tuple[float, float]:
+def flu_fit_ratio(read, imu, dvl, config, offsets=(0.0,)) -> tuple[float, float]:
     """``(SSE as read / SSE with y, z negated, explained fraction negated)`` of the clock model ``read`` (the DVL
-    as read, :func:`~graphnav.core.dvl_kinematics.dvl_window_model`) at ``offset`` s."""
+    as read, :func:`~graphnav.core.dvl_kinematics.dvl_window_model`) at the DVL offset ``offsets`` (s), or, given
+    several, each reading at its own best of them over the same windows (:func:`_best_fits`)."""
     flipped, _ = dvl_window_model(imu, dvl, config, transform=np.diag([1.0, -1.0, -1.0]), ints=read.imu)
-    explained, sse, _ = flipped.score(offset)
-    return read.score(offset)[1] / max(sse, 1e-300), explained
+    offsets = np.atleast_1d(np.asarray(offsets, float))
+    if len(offsets) > 1:
+        fits = _best_fits({0: read, "flu": flipped}, offsets)
+        return fits[0][0] / max(fits["flu"][0], 1e-300), 1.0 - fits["flu"][0]
+    explained, sse, _ = flipped.score(float(offsets[0]))
+    return read.score(float(offsets[0]))[1] / max(sse, 1e-300), explained
 
 
+#: The index of the DVL stamps as they stand (offset 0) in :data:`SCALE_OFFSETS_S`.
+AT_STAMPS = int(np.argmin(np.abs(SCALE_OFFSETS_S)))
 #: The IMU turns :func:`imu_yaw_fit` tries about z, deg (the IMU's axes are ``Rz(yaw)^T`` body's: 90 puts its x to
 #: starboard and its y aft).
 IMU_YAWS_DEG = (90, 180, 270)
@@ -772,20 +779,9 @@ def _likely_unit(scale: float, declare: bool) -> str:
     return LIKELY_UNITS[factor][0 if declare else 1]
 
 
-def fits_turned_elsewhere(fits: list, best: int) -> bool:
-    """Whether the scale fits (:func:`speed_scale`'s, one per offset of :data:`SCALE_OFFSETS_S`) explain
-    :data:`MIN_SCALE_R2` at an offset whose turn lies over 90 deg from the best's (index ``best``): the fit's r^2 is
-    blind to a velocity's sign, and a speed swinging with a period (a vehicle surging in waves) fits half a period
-    off turned 180 deg as well as on time (straight legs at 1 m/s surging 0.1-0.5 m/s every 8-20 s: r^2 within
-    0.001 of the best there), so the best offset, which noise picks, fixes no clock for the IMU-turn fits."""
-    yaws = np.array([f[2] for f in fits])
-    r2 = np.array([np.nan_to_num(f[1], nan=-1.0) for f in fits])
-    turned = np.abs(np.angle(np.exp(1j * (yaws - yaws[best])))) > np.pi / 2      # NaN yaw: False
-    return bool(np.any(turned & (r2 >= MIN_SCALE_R2)))
-
-
 def check_velocity_against_imu(imu, dvl, config, meta: dict, moved: bool = False, imu_frame: dict | None = None,
-                               field: str | None = None, fixes: dict = DECLARE_DVL_FIXES, reference=None) -> None:
+                               field: str | None = None, fixes: dict = DECLARE_DVL_FIXES, reference=None,
+                               clock_known: bool = True) -> None:
     """DataError when the DVL velocity (on the IMU clock) is far from the IMU's in scale (:func:`speed_scale`, a
     speed unit read wrong) or in FLU axes read as FRD (:func:`flu_fit_ratio`), naming the DVL file and its columns
     (``meta["stream_fields"]["dvl"]``); nothing when the fit tells too little (module docstring). The scale is
@@ -800,11 +796,15 @@ def check_velocity_against_imu(imu, dvl, config, meta: dict, moved: bool = False
     ``field``: the DVL columns named (default the loader's ``meta["stream_fields"]["dvl"]``); ``fixes``: what the
     messages advise (:data:`DECLARE_DVL_FIXES`, :data:`AKIT_DVL_FIXES`); ``reference``: the mission's reference,
     which says where the vehicle moves when the fits cannot judge the DVL's turn (:func:`warn_dvl_sideways`). A turn
-    beyond 10 deg is read at the best scale's offset (:data:`MAX_YAW_RAD`), each turn over the windows no DVL
-    outage crosses (:data:`~graphnav.core.dvl_kinematics.MAX_TURN_GAP_S`); a few degrees beyond its sigma at the DVL's
-    stamps as they stand (a clock found, given or the vehicle's) is warned about and counted (:data:`MIN_YAW_RAD`,
-    :func:`warn_small_turn`). A velocity the body kinematics kept as body in a current (``meta[CARRIED]``,
-    :func:`graphnav.io.dvl_frame.check_not_earth_frame`) is judged by no mean direction."""
+    beyond 10 deg is read at the best scale's offset (:data:`MAX_YAW_RAD`), up to a half turn where another offset
+    fits as well turned back (:func:`~graphnav.core.dvl_kinematics.fits_turned_elsewhere`: a speed swinging with a
+    period), each turn over the windows no DVL outage crosses (:data:`~graphnav.core.dvl_kinematics.MAX_TURN_GAP_S`);
+    a few degrees beyond its sigma at the DVL's stamps as they stand (a clock found, given or the vehicle's) is warned
+    about and counted (:data:`MIN_YAW_RAD`, :func:`warn_small_turn`). A velocity the body kinematics kept as body in a
+    current (``meta[CARRIED]``, :func:`graphnav.io.dvl_frame.check_not_earth_frame`) is judged by no mean direction.
+    ``clock_known`` False: the DVL stamps have still to be judged by a clock search (``clock: auto``), so the turn at
+    them is taken up to a half turn where another offset fits as well turned back, and FLU axes are judged at each
+    reading's own best offset too (:func:`check_flu_axes`)."""
     field = field or meta.get("stream_fields", {}).get("dvl", "velocity")
     try:
         model = judging_model(imu, dvl, config)
@@ -834,14 +834,17 @@ def check_velocity_against_imu(imu, dvl, config, meta: dict, moved: bool = False
     # a velocity the body kinematics kept as body in a current points where the current carries the vehicle: its mean
     # direction says nothing of the vehicle's forward, and it was judged on the IMU clock as it stands (offset 0)
     carried = bool(meta.get(CARRIED))
+    # a speed swinging with a period fits half a period off turned 180 deg as well as on time: where another offset
+    # fits so, the best offset's turn is known only up to a half turn, and a half turn there is no DVL's
+    sign_free = fits_turned_elsewhere(fits, best)
     # a velocity its own fit finds turned, pointing forward turned back, is the DVL's (45 deg is no IMU quarter turn)
-    turned = turn_r2 >= MIN_SCALE_R2 and abs(yaw) > MAX_YAW_RAD
+    turned = turn_r2 >= MIN_SCALE_R2 and abs(yaw if not sign_free else within_half_turn(yaw)) > MAX_YAW_RAD
     dvl_yawed = turned and not carried and _forward_turned_back(_course(dvl, config), yaw)
     if imu_frame is not None and not dvl_yawed:     # before the DVL's yaw: a turned IMU turns the velocity too
         # the best scale's offset where its fit explains enough to fix the DVL's clock; where not (a vehicle holding
         # its speed: r^2 0.02-0.4) its best is noise, up to 20 s off, and every fit is read at its own best offset
         # and where another offset fits as well turned back (a speed swinging with a period) its best is noise too
-        fixed = r2 >= MIN_SCALE_R2 and not fits_turned_elsewhere(fits, best)
+        fixed = r2 >= MIN_SCALE_R2 and not sign_free
         offsets = ((0.0,) if carried else (SCALE_OFFSETS_S[best],) if fixed else SCALE_OFFSETS_S)
         dvl_turn = check_imu_yaw(imu, dvl, config, meta, imu_frame, model, offsets, carried)
     if turned:
@@ -862,14 +865,38 @@ def check_velocity_against_imu(imu, dvl, config, meta: dict, moved: bool = False
     # for them; and a turn beyond 10 deg there that the best offset missed is said too
     if not turned and not dvl_turn:                 # not a quarter turn
         yaw, sigma, r2 = turn_at(model)
+        if not clock_known and fits_turned_elsewhere(fits, AT_STAMPS):
+            yaw = within_half_turn(yaw)     # stamps half a swing off turn a speed swinging with a period by 180 deg
         if r2 >= MIN_SCALE_R2:
             warn_small_turn(dvl, meta, field, fixes, yaw, sigma, r2)
+    check_flu_axes(model, imu, dvl, config, meta, field, fixes, clock_known)
+
+
+def check_flu_axes(model, imu, dvl, config, meta: dict, field: str, fixes: dict, clock_known: bool = True) -> None:
+    """DataError naming the DVL file and its columns ``field`` when the DVL velocity (the clock model ``model``) fits
+    the IMU :data:`FLU_SSE_RATIO` times better with its y and z negated at its stamps (:func:`flu_fit_ratio`): FLU axes
+    read as FRD. ``clock_known`` False (stamps a clock search has still to judge): a velocity that fits so at its
+    stamps is judged again with each reading at its own best offset within +- :data:`SCALE_SEARCH_S`, and refused
+    only where y and z negated still fit so: half a period off, a speed swinging with a period fits negated (along y
+    on a vehicle moving sideways, as FLU axes do), while FLU axes negate neither x nor the clock (a note then)."""
     ratio, explained = flu_fit_ratio(model, imu, dvl, config)
-    if explained >= MIN_FLU_EXPLAINED and ratio >= FLU_SSE_RATIO:
-        raise _unless_declared_earth(meta, DataError(
-            f"the DVL velocity fits the IMU's accelerations {ratio:.3g}x better with its y and z negated (then "
-            f"explaining {explained:.2f} of its changes): FLU axes (ROS base_link) read as FRD? {fixes['flu']}",
-            dvl.source, field=field))
+    if not (explained >= MIN_FLU_EXPLAINED and ratio >= FLU_SSE_RATIO):
+        return
+    where = ""
+    if not clock_known:
+        at_stamps = ratio
+        ratio, explained = flu_fit_ratio(model, imu, dvl, config, SCALE_OFFSETS_S)
+        if not (explained >= MIN_FLU_EXPLAINED and ratio >= FLU_SSE_RATIO):
+            add_note(meta, "dvl", f"its axes not taken for FLU: at its stamps it fits the IMU's accelerations "
+                                  f"{at_stamps:.3g}x better with y and z negated, but each reading at its own best DVL "
+                                  f"offset within +-{SCALE_SEARCH_S:g} s only {ratio:.3g}x (a speed swinging with a "
+                                  "period fits negated half a period off; the DVL clock is not known)")
+            return
+        where = f", each reading at its own best DVL offset within +-{SCALE_SEARCH_S:g} s (the clock not known)"
+    raise _unless_declared_earth(meta, DataError(
+        f"the DVL velocity fits the IMU's accelerations {ratio:.3g}x better with its y and z negated{where} (then "
+        f"explaining {explained:.2f} of its changes): FLU axes (ROS base_link) read as FRD? {fixes['flu']}",
+        dvl.source, field=field))
 
 
 #: A declared DVL velocity unit whose clock model leaves this many times as much of the velocity's changes unexplained

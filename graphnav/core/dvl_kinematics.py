@@ -66,6 +66,13 @@ MIN_SCALE_R2 = 0.9
 SCALE_SEARCH_S = 20.0
 #: The DVL offsets (s) the scale and gyro fits take their best of: every 0.5 s within +- SCALE_SEARCH_S.
 SCALE_OFFSETS_S = np.arange(-SCALE_SEARCH_S, SCALE_SEARCH_S + 0.25, 0.5)
+#: A scale fit at an offset whose turn lies over 90 deg from the best's fits as well as the best when it leaves at most
+#: this many times the best's unexplained share (1 - r^2) (:func:`fits_turned_elsewhere`). Straight legs at 1 m/s
+#: surging 0.1-0.5 m/s every 8-53 s (seeds 0-2, 1 and 4 cm/s of DVL noise, on time and 8 s late) whose best explains
+#: MIN_SCALE_R2, the only fits judged: 1.00-1.11 with half a period inside +- SCALE_SEARCH_S, 5.4-14 beyond it (53 s on
+#: time); weaker bests (r^2 0.36-0.62) 1.06-1.81. The ten A-KIT trajectories: no offset fits turned on nine, the steady
+#: Trajectory13 (best 0.61, not judged) 1.96.
+TURNED_FIT_RATIO = 1.5
 #: Shortest overlap of the two logs at a candidate clock offset, s ...
 MIN_OVERLAP_S = 60.0
 #: ... and at least this fraction of the shorter log.
@@ -416,6 +423,25 @@ def best_speed_fit(model, offsets, gapless: bool = False) -> tuple[int, list[tup
     under two windows, explains none)."""
     fits = [speed_scale(model, o, gapless) for o in offsets]
     return int(np.argmax([np.nan_to_num(f[1], nan=-1.0) for f in fits])), fits
+
+
+def fits_turned_elsewhere(fits: list, best: int) -> bool:
+    """Whether the scale fits (:func:`speed_scale`'s, one per offset of a search) explain the velocity's changes as
+    well as the best (index ``best``: :data:`MIN_SCALE_R2`, or within :data:`TURNED_FIT_RATIO` of its unexplained
+    share) at an offset whose turn lies over 90 deg from the best's: the fit's r^2 is blind to a velocity's sign, and a
+    speed swinging with a period (a vehicle surging in waves) fits half a period off turned 180 deg as well as on time
+    (straight legs at 1 m/s surging 0.1-0.5 m/s every 8-20 s: r^2 within 0.01 of the best there), so the best offset,
+    which noise picks, fixes neither the clock nor the sign of the velocity's changes."""
+    yaws = np.array([f[2] for f in fits])
+    r2 = np.array([np.nan_to_num(f[1], nan=-1.0) for f in fits])
+    turned = np.abs(np.angle(np.exp(1j * (yaws - yaws[best])))) > np.pi / 2      # NaN yaw: False
+    alike = (r2 >= MIN_SCALE_R2) | (1.0 - r2 <= TURNED_FIT_RATIO * (1.0 - r2[best]))
+    return bool(np.any(turned & alike))
+
+
+def within_half_turn(yaw: float) -> float:
+    """A turn about z (rad) known only up to 180 deg (:func:`fits_turned_elsewhere`): the one within +-90 deg."""
+    return float(np.angle(np.exp(2j * yaw)) / 2.0)
 
 
 def _horizontal_sides(model, offset: float, gapless: bool = False):

@@ -860,14 +860,17 @@ def mean_course(v: np.ndarray) -> float:
 
 
 def turn_against_imu(t_dvl: np.ndarray, v: np.ndarray, t_imu: np.ndarray, f_b: np.ndarray, omega_b: np.ndarray,
-                     offsets=(0.0,)) -> tuple[float, float, float, float]:
-    """``(yaw, sigma, offset, r2)``: the turn about z (rad) of the body-frame velocity ``v`` (M,3, m/s, at ``t_dvl``
-    s) against what the IMU (``t_imu`` s, ``f_b`` m/s^2, ``omega_b`` rad/s) says of its changes, and its standard
-    error (rad, :func:`graphnav.core.dvl_kinematics.yaw_sigma`: the clock model's windows, no lever arm), at the DVL
-    offset among ``offsets`` (s, added to ``t_dvl``) where the fit explains most of the velocity's changes (``r2``,
-    :func:`~graphnav.core.dvl_kinematics.speed_scale`'s, which a turn of the velocity leaves as it is: both readings
-    of one velocity are judged at one offset); NaN under two windows of pings."""
-    from graphnav.core.dvl_kinematics import best_speed_fit, dvl_window_model, yaw_sigma
+                     offsets=(0.0,)) -> tuple[float, float, float, float, bool]:
+    """``(yaw, sigma, offset, r2, sign_free)``: the turn about z (rad) of the body-frame velocity ``v`` (M,3, m/s, at
+    ``t_dvl`` s) against what the IMU (``t_imu`` s, ``f_b`` m/s^2, ``omega_b`` rad/s) says of its changes, and its
+    standard error (rad, :func:`graphnav.core.dvl_kinematics.yaw_sigma`: the clock model's windows, no lever arm), at
+    the DVL offset among ``offsets`` (s, added to ``t_dvl``) where the fit explains most of the velocity's changes
+    (``r2``, :func:`~graphnav.core.dvl_kinematics.speed_scale`'s, which a turn of the velocity leaves as it is: both
+    readings of one velocity are judged at one offset); ``sign_free``: another of ``offsets`` fits as well with the
+    velocity turned over 90 deg from there (:func:`~graphnav.core.dvl_kinematics.fits_turned_elsewhere`: a speed
+    swinging with a period, half a period off), so the turn is known only up to 180 deg. NaN under two windows of
+    pings."""
+    from graphnav.core.dvl_kinematics import best_speed_fit, dvl_window_model, fits_turned_elsewhere, yaw_sigma
     from graphnav.core.mission import DvlData, ImuData, no_beams
     ok = np.all(np.isfinite(v), axis=1)
     t, v = np.asarray(t_dvl, float)[ok], np.asarray(v, float)[ok]
@@ -875,10 +878,11 @@ def turn_against_imu(t_dvl: np.ndarray, v: np.ndarray, t_imu: np.ndarray, f_b: n
         model, _ = dvl_window_model(ImuData(np.asarray(t_imu, float), np.asarray(f_b, float),
                                             np.asarray(omega_b, float)), DvlData(t, *no_beams(len(t)), v))
     except DataError:
-        return (float("nan"),) * 4
+        return (float("nan"),) * 4 + (False,)
     offsets = np.atleast_1d(np.asarray(offsets, float))
     best, fits = best_speed_fit(model, offsets, gapless=True)
-    return (*yaw_sigma(model, float(offsets[best])), float(offsets[best]), float(fits[best][1]))
+    return (*yaw_sigma(model, float(offsets[best])), float(offsets[best]), float(fits[best][1]),
+            fits_turned_elsewhere(fits, best))
 
 
 #: How far off the nose body-frame columns declared in an earth frame point once turned to body by the heading: forward
@@ -939,15 +943,16 @@ def _changes_against_imu(v: np.ndarray, v_b: np.ndarray, imu: tuple | None) -> t
     too (the readings are turned from each other by about the mean heading column: a heading column or mounting
     further off than the allowance, on a heading within it, turns them as a frame would); None where the IMU does not
     tell (a vehicle holding its speed, DVL stamps off the IMU span, readings that close)."""
-    from graphnav.core.dvl_kinematics import MIN_SCALE_R2, SCALE_OFFSETS_S
+    from graphnav.core.dvl_kinematics import MIN_SCALE_R2, SCALE_OFFSETS_S, within_half_turn
     if imu is None:
         return None, "the IMU did not judge it (the DVL stamps, with dvl_time_offset_s, off the IMU span)"
     t_dvl, t_imu, f_b, omega_b, known = imu
     # stamps not known to be on the IMU clock are judged where the changes fit best within 20 s, and only where that
     # fit explains most of them: 8 s off, the turns at the stamps are noise with a small sigma (true NED straight legs
     # refused), and a weak fit's best offset is noise too (body legs swinging 0.05 m/s kept as earth-fixed)
-    yaw_b, sigma_b, offset, r2 = turn_against_imu(t_dvl, v_b, t_imu, f_b, omega_b, 0.0 if known else SCALE_OFFSETS_S)
-    yaw_r, sigma_r, _, _ = turn_against_imu(t_dvl, v, t_imu, f_b, omega_b, offset)
+    yaw_b, sigma_b, offset, r2, sign_free = turn_against_imu(t_dvl, v_b, t_imu, f_b, omega_b,
+                                                             0.0 if known else SCALE_OFFSETS_S)
+    yaw_r, sigma_r, *_ = turn_against_imu(t_dvl, v, t_imu, f_b, omega_b, offset)
     if not (np.isfinite(yaw_b) and np.isfinite(yaw_r)):
         return None, "the IMU did not judge it (under two windows of pings)"
     if not (known or r2 >= MIN_SCALE_R2):
@@ -955,10 +960,15 @@ def _changes_against_imu(v: np.ndarray, v_b: np.ndarray, imu: tuple | None) -> t
                       f"{offset:+.1f} s the IMU's accelerations explain {r2:.2f} of the velocity's changes, "
                       f"{MIN_SCALE_R2:g} needed)")
     floor, k = DECLARED_EARTH_TURN_RAD, DECLARED_EARTH_TURN_SIGMAS
+    if sign_free:
+        # half a period off, a speed swinging with a period fits turned 180 deg as well as on time: only the turn
+        # within a half turn says which reading meets the IMU (both readings move by the same half turn)
+        yaw_b, yaw_r = within_half_turn(yaw_b), within_half_turn(yaw_r)
     found = (f"its changes, turned to body, are turned {np.degrees(yaw_b):+.1f} +- {np.degrees(sigma_b):.1f} deg "
              f"about z from what the IMU's accelerations say, its columns as read {np.degrees(yaw_r):+.1f} +- "
              f"{np.degrees(sigma_r):.1f} deg (a velocity in its right frame: within {np.degrees(floor):g} deg and "
-             f"{k:g} sigmas){'' if known else f'; at the DVL offset {offset:+.1f} s, where they fit best'}")
+             f"{k:g} sigmas){'' if known else f'; at the DVL offset {offset:+.1f} s, where they fit best'}"
+             f"{_SIGN_FREE if sign_free else ''}")
     body_off, read_off = abs(yaw_b) - floor > k * sigma_b, abs(yaw_r) - floor > k * sigma_r
     # the two readings are turned from each other by about the mean heading column; where one is not nearer the IMU's
     # by the allowance too, a heading column or mounting that far off (a true NED copy heading 10 deg, its heading
@@ -967,6 +977,11 @@ def _changes_against_imu(v: np.ndarray, v_b: np.ndarray, imu: tuple | None) -> t
     if body_off != read_off and apart:
         return ("body" if body_off else "earth"), found
     return None, f"the IMU does not tell them apart: {found}"
+
+
+#: What the turns of :func:`_changes_against_imu` say where the fits cannot fix their sign.
+_SIGN_FREE = (", up to 180 deg: another offset fits as well with the changes turned 180 deg (a speed swinging with a "
+              "period, half a period off), and the DVL clock is not known")
 
 
 def columns_to_body(t_dvl: np.ndarray, v: np.ndarray, euler: np.ndarray | None, spec: dict, C_d_b: np.ndarray,
