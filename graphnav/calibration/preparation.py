@@ -780,7 +780,7 @@ def _prepare_streams(mission: Mission, meta: dict, facts: dict) -> Mission:
     judged = on_the_imu_clock(dvl.t, mission.imu.t) and not given and not meta.get(OFF_ITS_STAMPS)
     if judged:
         # before the clock search: a velocity in other units or axes can fit the IMU best at a wrong offset
-        _judge_dvl_against_imu(mission, dvl, meta, facts, unchecked)
+        _judge_dvl_against_imu(mission, dvl, meta, facts, unchecked, clock_known=facts.get("dvl_clock") != AUTO)
     if given is not None:
         dvl, depth = _given_dvl_offset(dvl, depth, float(given), meta)
     searched = dvl
@@ -806,7 +806,8 @@ def _prepare_streams(mission: Mission, meta: dict, facts: dict) -> Mission:
         # however the DVL got onto the IMU clock: searched, or by a given offset the search left as it is (or
         # ``clock: imu``); before the given offset is judged, which a velocity in other units or axes misleads. One
         # the loader kept as carried by a current off the IMU clock was judged for an earth frame at its own offsets
-        _judge_dvl_against_imu(mission, dvl, meta, facts, unchecked, moved=judged or not meta.get(CARRIED))
+        _judge_dvl_against_imu(mission, dvl, meta, facts, unchecked, moved=judged or not meta.get(CARRIED),
+                               clock_known=not (facts.get("dvl_clock") == AUTO and dvl is searched and not given))
     if given is not None:
         _judge_given_dvl_clock(mission, searched, dvl, meta, facts, float(given))
     # after the DVL has judged the gyro (on its clock too): the reference's offset integrates the gyro as converted
@@ -866,18 +867,19 @@ def _check_declared_clock(mission: Mission, dvl: DvlData, given: float | None) -
 
 
 def _judge_dvl_against_imu(mission: Mission, dvl: DvlData, meta: dict, facts: dict, imu_frame: dict | None,
-                           moved: bool = False) -> None:
+                           moved: bool = False, clock_known: bool = True) -> None:
     """A log's or bag's DVL ``dvl``, on the IMU clock, judged against the IMU: its declared velocity unit
     (:func:`graphnav.calibration.dvl_scale.check_declared_velocity_unit`; first: a velocity 100x too small fits the
     IMU as badly turned as not), then its scale, turn and FLU axes and, with ``imu_frame`` (the IMU's declared frame no
     reference checked), the IMU's turn about z (:func:`graphnav.calibration.dvl_scale.check_velocity_against_imu`).
     ``moved``: the DVL was put on the IMU clock here (by the clock search or a given ``dvl_time_offset_s``), where the
-    loader could not check it for an earth frame by the body kinematics: checked too. DataError or warnings as
-    those say."""
+    loader could not check it for an earth frame by the body kinematics: checked too. ``clock_known``: the DVL stamps
+    are on the IMU clock as declared, given or found (not before the clock search, nor where it found nothing): only
+    then is the DVL's y judged, at them. DataError or warnings as those say."""
     from graphnav.calibration.dvl_scale import check_declared_velocity_unit, check_velocity_against_imu
     check_declared_velocity_unit(mission.imu, dvl, mission.config, meta, judged_velocity_unit(meta))
     check_velocity_against_imu(mission.imu, dvl, mission.config, meta, moved=moved, imu_frame=imu_frame,
-                               fixes=_dvl_fixes(facts), reference=mission.gt)
+                               fixes=_dvl_fixes(facts), reference=mission.gt, clock_known=clock_known)
 
 
 def _dvl_fixes(facts: dict) -> dict:
