@@ -154,3 +154,24 @@ def test_the_dvl_y_fit_needs_the_velocity_to_change_sideways_not_only_noise_vari
             assert fit.ratio > 2 * DVL_Y_MIN_RATIO and fit.q_read > 10 * DVL_Y_MIN_Q, fit
         else:
             assert fit.q_read > DVL_Y_MIN_Q and fit.ratio < DVL_Y_DOUBT_RATIO, fit
+
+
+def test_a_crabbing_vehicle_whose_dvl_y_is_negated_is_told_the_y_beside_the_turn(tmp_path):
+    """A vehicle moving along its y (a crabbing ROV) changes its x little: its DVL's y negated fits the IMU turned 180
+    deg about z within 10 noise variances (3.7e3 better than as read), and the log was refused as the IMU and the DVL
+    turned against each other, without a word of the y. The refusal names the y negated too, with the column to
+    negate."""
+    import dataclasses
+
+    from test_dvl_frame import _folder, _simulated, _slow_in_current
+
+    from graphnav.core.errors import DataError
+    from graphnav.missions import load_mission
+    m, _, _ = _simulated(300.0)
+    t_imu, f_b, omega_b, t, v_b = _slow_in_current(1, 0.4, 0.0, sideways=True)
+    crabbing = dataclasses.replace(m, imu=dataclasses.replace(m.imu, t=t_imu, f_b=f_b, omega_b=omega_b))
+    with pytest.raises(DataError, match=r"turned 180 deg about z against each other: .*\. Or the DVL velocity's y is "
+                                        r"negated \(or the IMU mirrored.*\): that fits 3\.\d+e\+03 noise variances "
+                                        r"better than as read and within \d+ of the IMU turned 180 deg about z; if "
+                                        r"so, negate the y velocity column in the file"):
+        load_mission(*_folder(tmp_path, (crabbing, t, None), v_b * [1.0, -1.0, 1.0]))
