@@ -175,3 +175,35 @@ def test_a_crabbing_vehicle_whose_dvl_y_is_negated_is_told_the_y_beside_the_turn
                                         r"better than as read and within \d+ of the IMU turned 180 deg about z; if "
                                         r"so, negate the y velocity column in the file"):
         load_mission(*_folder(tmp_path, (crabbing, t, None), v_b * [1.0, -1.0, 1.0]))
+
+
+@pytest.mark.parametrize("trajectory", ["Trajectory5", "Trajectory8"])
+def test_a_short_akit_piece_whose_dvl_y_is_negated_is_refused_where_only_the_y_negated_finds_its_clock(
+        akit_dir, tmp_path, trajectory):
+    """The first 60 s of an A-KIT trajectory as a column-map log (the DVL on a clock to be found), its DVL Y column
+    negated: the clock search found no clear offset (the velocity's changes fit the IMU at none), and the log loaded
+    with the clock's warning, the y unjudged (judged only on a clock known). Searched again with the y negated, the
+    DVL finds its clock (+0.96-0.99 s, the IMU explaining 0.97-0.98 of its velocity changes): refused naming the y."""
+    import json
+
+    from graphnav.core.errors import DataError
+    from graphnav.io.loaders import akit_files
+    from graphnav.missions import load_mission
+    files, cols = akit_files(akit_dir / trajectory), {}
+    for kind in ("IMU", "DVL"):
+        head, *rows = files[kind].read_text().splitlines()
+        a = np.array([[float(x) for x in r.split(",")] for r in rows])
+        a = a[a[:, 0] < 60.0]
+        if kind == "DVL":
+            a[:, 2] *= -1.0
+        np.savetxt(tmp_path / f"{kind}.csv", a, delimiter=",", fmt="%.12g", comments="", header=head)
+        cols[kind] = head.split(",")
+    cmap = {"time_unit": "s",
+            "imu": {"file": "IMU.csv", "t": cols["IMU"][0], "f_b": cols["IMU"][1:4], "omega_b": cols["IMU"][4:7]},
+            "dvl": {"file": "DVL.csv", "t": cols["DVL"][0], "v_b": cols["DVL"][1:4]}}
+    (tmp_path / "config.json").write_text(json.dumps({"csv_columns": cmap}))
+    with pytest.raises(DataError, match=r"DVL clock offset not found .* but with its y negated the DVL finds its clock "
+                                        r"at \+0\.9\d+ s .*: not the clock but the DVL velocity's y is negated against "
+                                        r"the IMU: .* negate the y velocity column in the file") as err:
+        load_mission(tmp_path, tmp_path / "config.json")
+    assert err.value.source.endswith("DVL.csv")

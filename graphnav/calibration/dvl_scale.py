@@ -288,6 +288,32 @@ class DvlYFit:
     q_flu: float = float("nan")
     other: str = ""
 
+    @property
+    def clear(self) -> bool:
+        """The y negated fits clearly better than as read, and FLU not clearly better than it."""
+        return self.q_read >= DVL_Y_MIN_Q and self.ratio >= DVL_Y_MIN_RATIO and self.q_flu > -DVL_Y_MIN_Q
+
+    @property
+    def refused(self) -> bool:
+        """:attr:`clear`, and better than every other axis error but FLU as clearly."""
+        return self.clear and self.q_other >= DVL_Y_MIN_Q
+
+    def said(self, fixes: dict, kept: bool = False) -> str:
+        """What the fit says of the DVL's y, with ``fixes["y"]`` (and ``fixes["flu"]`` where FLU fits about as well)
+        and the mirrored IMU it cannot be told from; ``kept``: said of a velocity kept as read (a warning)."""
+        flu = ("" if self.q_flu >= DVL_Y_MIN_Q else
+               f" (or its y and z negated, FLU axes read as FRD, which fit {abs(self.q_flu):.3g} noise variances "
+               f"{'worse' if self.q_flu > 0 else 'better'}: {fixes['flu']})")
+        return (("the DVL velocity's y may be negated against the IMU (kept as read)" if kept else
+                 "the DVL velocity's y is negated against the IMU")
+                + f": the accelerometer and gyro leave {self.ratio:.3g}x as much of the velocity's changes "
+                f"unexplained as read as with its y negated ({DVL_Y_MIN_RATIO:g}x needed{' to refuse it' if kept else ''}"
+                f"), which fits better by {self.q_read:.3g} noise variances than as read, and by {self.q_other:.3g} "
+                f"than with {self.other} ({DVL_Y_MIN_Q:g} needed): a DVL frame taken left-handed (a sign in the driver, "
+                f"an instrument frame read as the ship's)? {fixes['y']}{flu}. Or the IMU is mirrored (its "
+                "accelerometer y and gyro x and z negated, which its own tilt kinematics cannot tell; imu_axis_signs "
+                "negates both sensors alike and cannot undo it): then negate those IMU columns of the file instead")
+
 
 def dvl_y_negated_fit(read, imu, dvl, config) -> DvlYFit:
     """How much better the clock model ``read`` (the DVL as read on the IMU, at its stamps as they stand) fits with
@@ -321,30 +347,17 @@ def check_dvl_y(imu, dvl, config, meta: dict, read, field: str, fixes: dict) -> 
     IMU about as well (a vehicle moving sideways, whose x changes little), the sentence :func:`check_imu_yaw`'s refusal
     of the turn adds is returned; else ""."""
     fit = dvl_y_negated_fit(read, imu, dvl, config)
-    clear = fit.q_read >= DVL_Y_MIN_Q and fit.ratio >= DVL_Y_MIN_RATIO and fit.q_flu > -DVL_Y_MIN_Q
-    if clear and abs(fit.q_other) < DVL_Y_MIN_Q:
+    if fit.clear and abs(fit.q_other) < DVL_Y_MIN_Q:
         return (f". Or the DVL velocity's y is negated (or the IMU mirrored: its accelerometer y and gyro x and z "
                 f"negated): that fits {fit.q_read:.3g} noise variances better than as read and within "
                 f"{abs(fit.q_other):.0f} of {fit.other}; if so, {fixes['y']}")
     if not (min(fit.q_read, fit.q_other) >= DVL_Y_DOUBT_Q and fit.ratio >= DVL_Y_DOUBT_RATIO
             and fit.q_flu > -DVL_Y_DOUBT_Q):
         return ""
-    flu = ("" if fit.q_flu >= DVL_Y_MIN_Q else
-           f" (or its y and z negated, FLU axes read as FRD, which fit {abs(fit.q_flu):.3g} noise variances "
-           f"{'worse' if fit.q_flu > 0 else 'better'}: {fixes['flu']})")
-    strong = clear and fit.q_other >= DVL_Y_MIN_Q
-    finding = (("the DVL velocity's y is negated against the IMU" if strong else
-                "the DVL velocity's y may be negated against the IMU (kept as read)")
-               + f": the accelerometer and gyro leave {fit.ratio:.3g}x as much of the velocity's changes unexplained "
-               f"as read as with its y negated ({DVL_Y_MIN_RATIO:g}x needed{'' if strong else ' to refuse it'}), "
-               f"which fits better by {fit.q_read:.3g} noise variances than as read, and by {fit.q_other:.3g} than "
-               f"with {fit.other} ({DVL_Y_MIN_Q:g} needed): a DVL frame taken left-handed (a sign in the driver, an "
-               f"instrument frame read as the ship's)? {fixes['y']}{flu}. Or the IMU is mirrored (its accelerometer y "
-               "and gyro x and z negated, which its own tilt kinematics cannot tell; imu_axis_signs negates both "
-               "sensors alike and cannot undo it): then negate those IMU columns of the file instead")
-    if strong:
-        raise DataError(finding, dvl.source, field=field)
-    say_doubted(meta, "dvl", dvl.source, f"field '{field}': {finding}", DVL_Y_DOUBT, len(dvl.t), stacklevel=3)
+    if fit.refused:
+        raise DataError(fit.said(fixes), dvl.source, field=field)
+    say_doubted(meta, "dvl", dvl.source, f"field '{field}': {fit.said(fixes, kept=True)}", DVL_Y_DOUBT, len(dvl.t),
+                stacklevel=3)
     return ""
 
 
