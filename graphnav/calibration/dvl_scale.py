@@ -304,13 +304,14 @@ class DvlYFit:
         flu = ("" if self.q_flu >= DVL_Y_MIN_Q else
                f" (or its y and z negated, FLU axes read as FRD, which fit {abs(self.q_flu):.3g} noise variances "
                f"{'worse' if self.q_flu > 0 else 'better'}: {fixes['flu']})")
+        to_refuse = " to refuse it" if kept else ""
         return (("the DVL velocity's y may be negated against the IMU (kept as read)" if kept else
                  "the DVL velocity's y is negated against the IMU")
                 + f": the accelerometer and gyro leave {self.ratio:.3g}x as much of the velocity's changes "
-                f"unexplained as read as with its y negated ({DVL_Y_MIN_RATIO:g}x needed{' to refuse it' if kept else ''}"
-                f"), which fits better by {self.q_read:.3g} noise variances than as read, and by {self.q_other:.3g} "
-                f"than with {self.other} ({DVL_Y_MIN_Q:g} needed): a DVL frame taken left-handed (a sign in the driver, "
-                f"an instrument frame read as the ship's)? {fixes['y']}{flu}. Or the IMU is mirrored (its "
+                f"unexplained as read as with its y negated ({DVL_Y_MIN_RATIO:g}x needed{to_refuse}), which fits "
+                f"better by {self.q_read:.3g} noise variances than as read, and by {self.q_other:.3g} than with "
+                f"{self.other} ({DVL_Y_MIN_Q:g} needed): a DVL frame taken left-handed (a sign in the driver, an "
+                f"instrument frame read as the ship's)? {fixes['y']}{flu}. Or the IMU is mirrored (its "
                 "accelerometer y and gyro x and z negated, which its own tilt kinematics cannot tell; imu_axis_signs "
                 "negates both sensors alike and cannot undo it): then negate those IMU columns of the file instead")
 
