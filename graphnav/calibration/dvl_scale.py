@@ -929,7 +929,9 @@ def check_velocity_against_imu(imu, dvl, config, meta: dict, moved: bool = False
     :func:`warn_small_turn`). A velocity the body kinematics kept as body in a current (``meta[CARRIED]``,
     :func:`graphnav.io.dvl_frame.check_not_earth_frame`) is judged by no mean direction. ``clock_known``: the DVL
     stamps are on the IMU clock as declared, given or found; only then is the velocity's y judged (:func:`check_dvl_y`,
-    at the stamps: 30 s off its clock a clean velocity fitted the IMU 1.28x better with its y negated)."""
+    at the stamps: 30 s off its clock a clean velocity fitted the IMU 1.28x better with its y negated). Before the
+    clock search, a velocity that fits clearly better with its y negated is judged only after it (its y negated
+    misleads the scale, turn and FLU fits: A-KIT pieces were refused as FLU, an IMU turned or a wrong unit)."""
     field = field or meta.get("stream_fields", {}).get("dvl", "velocity")
     try:
         model = judging_model(imu, dvl, config)
@@ -946,7 +948,15 @@ def check_velocity_against_imu(imu, dvl, config, meta: dict, moved: bool = False
         check_not_earth_frame(*dvl_velocity_b(dvl, config), imu.t, imu.omega_b, dvl.source, field.split(", "),
                               velocity_frame(config, meta), imu.f_b, meta=meta, own_offsets=True)
     # before the scale and turn fits, which a mirrored velocity misleads (a 1.57x scale; an IMU turned 90 deg)
-    or_dvl_y = check_dvl_y(imu, dvl, config, meta, model, field, fixes) if clock_known else ""
+    if not clock_known:
+        if dvl_y_negated_fit(model, imu, dvl, config).refused:
+            # judged once the clock search has put it on the IMU clock, with its y negated where only that finds it
+            add_note(meta, "dvl", "its unit, turn and axes judged against the IMU only on its clock: at its stamps "
+                                  "its velocity fits the IMU better with its y negated")
+            return
+        or_dvl_y = ""
+    else:
+        or_dvl_y = check_dvl_y(imu, dvl, config, meta, model, field, fixes)
     fits = [speed_scale(model, o) for o in SCALE_OFFSETS_S]
     best = int(np.argmax([np.nan_to_num(f[1], nan=-1.0) for f in fits]))
     scale, r2, _ = fits[best]
