@@ -947,8 +947,11 @@ def check_velocity_against_imu(imu, dvl, config, meta: dict, moved: bool = False
         # the columns listed as the loader's own check lists them
         check_not_earth_frame(*dvl_velocity_b(dvl, config), imu.t, imu.omega_b, dvl.source, field.split(", "),
                               velocity_frame(config, meta), imu.f_b, meta=meta, own_offsets=True)
-    # before the scale and turn fits, which a mirrored velocity misleads (a 1.57x scale; an IMU turned 90 deg)
-    if not clock_known:
+    # before the scale and turn fits, which a mirrored velocity misleads (a 1.57x scale; an IMU turned 90 deg); not
+    # where the frame checks found the velocity in another frame than declared: an earth-fixed one fits no body axes
+    if meta.get(KEPT_AS_DECLARED):
+        or_dvl_y = ""
+    elif not clock_known:
         if dvl_y_negated_fit(model, imu, dvl, config).refused:
             # judged once the clock search has put it on the IMU clock, with its y negated where only that finds it
             add_note(meta, "dvl", "its unit, turn and axes judged against the IMU only on its clock: at its stamps "

@@ -1330,8 +1330,9 @@ def _y_finds_the_clock_on_the_span(search, imu: ImuData, dvl: DvlData, config: S
     with the clock not found and the y unjudged (judged only on a clock known: at stamps seconds off, a clean velocity
     can fit better with its y negated, which the clock found then settles)."""
     from graphnav.calibration.dvl_scale import DVL_Y_NEGATED, dvl_y_negated_fit, judging_model
+    from graphnav.io.dvl_frame import KEPT_AS_DECLARED
     est = meta.get("clock_offsets", {}).get("dvl")
-    if est is None or est["confident"] or not on_the_imu_clock(dvl.t, imu.t):
+    if est is None or est["confident"] or not on_the_imu_clock(dvl.t, imu.t) or meta.get(KEPT_AS_DECLARED):
         return
     try:
         fit = dvl_y_negated_fit(judging_model(imu, dvl, config), imu, dvl, config)
