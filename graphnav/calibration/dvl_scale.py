@@ -265,9 +265,6 @@ DVL_Y_MIN_Q = IMU_YAW_MIN_Q
 DVL_Y_MIN_RATIO = 1.25
 DVL_Y_DOUBT_Q = 20.0
 DVL_Y_DOUBT_RATIO = 1.1
-#: ``meta`` key: before the clock search the DVL velocity fitted the IMU clearly better with its y negated at its
-#: stamps, and was left to be judged on its clock (:func:`check_velocity_against_imu`).
-DVL_Y_DEFERRED = "dvl_y_deferred"
 #: Why DVL pings read though their velocity's y fits the IMU better negated (:data:`DVL_Y_DOUBT_Q`) are counted.
 DVL_Y_DOUBT = "DVL velocity y fitting the IMU better negated (or the IMU mirrored)"
 
@@ -959,7 +956,6 @@ def check_velocity_against_imu(imu, dvl, config, meta: dict, moved: bool = False
             # judged once the clock search has put it on the IMU clock, with its y negated where only that finds it
             add_note(meta, "dvl", "its unit, turn and axes judged against the IMU only on its clock: at its stamps "
                                   "its velocity fits the IMU better with its y negated")
-            meta[DVL_Y_DEFERRED] = True
             return
         or_dvl_y = ""
     else:

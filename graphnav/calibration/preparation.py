@@ -1329,14 +1329,10 @@ def _y_finds_the_clock_on_the_span(search, imu: ImuData, dvl: DvlData, config: S
     leaves the velocity's changes unexplained at every offset: A-KIT 60 s pieces with the DVL's y negated were loaded
     with the clock not found and the y unjudged (judged only on a clock known: at stamps seconds off, a clean velocity
     can fit better with its y negated, which the clock found then settles)."""
-    from graphnav.calibration.dvl_scale import DVL_Y_DEFERRED, DVL_Y_NEGATED, dvl_y_negated_fit, judging_model
+    from graphnav.calibration.dvl_scale import DVL_Y_NEGATED, dvl_y_negated_fit, judging_model
     from graphnav.io.dvl_frame import KEPT_AS_DECLARED
     est = meta.get("clock_offsets", {}).get("dvl")
-    # a clock found for a velocity that fitted better with its y negated at its stamps may be the search's best of
-    # none (A-KIT 60-300 s pieces, their DVL's y negated, placed 7-92 s off)
-    deferred = bool(meta.get(DVL_Y_DEFERRED))
-    if est is None or (est["confident"] and not deferred) or not on_the_imu_clock(dvl.t, imu.t) \
-            or meta.get(KEPT_AS_DECLARED):
+    if est is None or est["confident"] or not on_the_imu_clock(dvl.t, imu.t) or meta.get(KEPT_AS_DECLARED):
         return
     try:
         fit = dvl_y_negated_fit(judging_model(imu, dvl, config), imu, dvl, config)
@@ -1347,12 +1343,9 @@ def _y_finds_the_clock_on_the_span(search, imu: ImuData, dvl: DvlData, config: S
     t, v = dvl_velocity_b(dvl, config)
     found = _trial_estimate(search, imu, DvlData(t, *no_beams(len(t)), v @ DVL_Y_NEGATED.T, source=dvl.source),
                             meta)
-    if found is None or not found["confident"] or (est["confident"] and not found["peak"] > est["peak"]):
+    if found is None or not found["confident"]:
         return
-    said = (f"the DVL clock search placed it at {est['offset_s']:+.3f} s (the IMU explaining {est['peak']:.2f} of its "
-            "velocity changes there)" if est["confident"] else f"{_clock_not_found_said(est)} with the stamps on the "
-            "IMU span")
-    raise DataError(f"{said}; but with its y negated the DVL "
+    raise DataError(f"{_clock_not_found_said(est)} with the stamps on the IMU span; but with its y negated the DVL "
                     f"finds its clock at {found['offset_s']:+.3f} s (the IMU explains {found['peak']:.2f} of its "
                     f"velocity changes there, {found['second_peak']:.2f} at the next best offset): not the clock but "
                     f"{fit.said(fixes)}", *_where(None, dvl, meta, fixes))
