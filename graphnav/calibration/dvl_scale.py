@@ -7,7 +7,9 @@ true one, the DVL side is ``k`` times what the IMU side says: after the per-wind
 of both sides, the IMU side regressed on the DVL side gives ``k`` (:func:`speed_scale`; regressing this way keeps
 the DVL's noise from shrinking it). A velocity in FLU read as FRD explains the IMU's accelerations far worse than
 the same velocity with y and z negated (:func:`flu_fit_ratio`), and an IMU mounted turned about z, which gravity
-cannot see, explains them far worse than the same IMU turned back (:func:`imu_yaw_fit`, :func:`check_imu_yaw`).
+cannot see, explains them far worse than the same IMU turned back (:func:`imu_yaw_fit`, :func:`check_imu_yaw`). A
+velocity whose y alone is negated (or, the same against the DVL, an IMU mirrored) explains them worse than negated
+back wherever the vehicle's sideways velocity changes (:func:`dvl_y_negated_fit`, :func:`check_dvl_y`).
 The same model judges the gyro's scale where the tilt kinematics cannot (:func:`check_gyro_against_dvl`: rates
 57.3x too small, or deg/s, fit the DVL far worse).
 Measured in ``docs/decisions/units-clocks-axes.md``.
@@ -244,9 +246,128 @@ def y_negated_fit(models: dict, imu, dvl, config, yaw: int, offsets=(0.0,)) -> t
     on both sensors is no turn (it makes the axes left-handed) and no motion explains it: the centripetal acceleration
     in turns reads on the wrong side, which a turn of 180 deg puts right (and the acceleration along x wrong), so a
     vehicle that turns more than it speeds up fits it turned."""
-    negated = dataclasses.replace(imu, f_b=imu.f_b * Y_NEGATED, omega_b=imu.omega_b * Y_NEGATED)
-    fits = _best_fits({0: models[0], yaw: models[yaw], "y": dvl_window_model(negated, dvl, config)[0]}, offsets)
+    fits = _best_fits({0: models[0], yaw: models[yaw], "y": imu_y_negated_model(imu, dvl, config)}, offsets)
     return _evidence(fits[0], fits["y"]), _evidence(fits[yaw], fits["y"])
+
+
+def imu_y_negated_model(imu, dvl, config):
+    """The clock model (:func:`~graphnav.core.dvl_kinematics.dvl_window_model`) of the DVL against the IMU with its y
+    negated on the accelerometer and the gyro (:data:`Y_NEGATED`)."""
+    negated = dataclasses.replace(imu, f_b=imu.f_b * Y_NEGATED, omega_b=imu.omega_b * Y_NEGATED)
+    return dvl_window_model(negated, dvl, config)[0]
+
+
+#: The DVL velocity's y negated (v_b = this @ v as read): a DVL frame taken left-handed (a driver's sign, an RDI
+#: instrument frame taken for its ship frame). Against the IMU it is the same as an IMU mirrored (accelerometer y,
+#: gyro x and z negated, the readings of the mirrored motion), which the IMU's own tilt kinematics cannot see.
+DVL_Y_NEGATED = np.diag([1.0, -1.0, 1.0])
+#: The DVL velocity's y and z negated (FLU axes read as FRD, :func:`flu_fit_ratio`).
+DVL_FLU = np.diag([1.0, -1.0, -1.0])
+#: A DVL y negated (:func:`dvl_y_negated_fit`) fitting better than as read and than every other axis error by this
+#: many noise variances (:func:`imu_yaw_fit`'s), and leaving :data:`DVL_Y_MIN_RATIO` times less of the velocity's
+#: changes unexplained than as read, is refused; by :data:`DVL_Y_DOUBT_Q` and :data:`DVL_Y_DOUBT_RATIO` it is warned
+#: about and counted. The ratio is needed as well: on a vehicle whose sideways velocity never changes the y negated
+#: fits up to 5 % better by the model's own misfit, which a long or quiet log counts as up to 95 noise variances.
+#: Measured at the stamps as loaded (docs/decisions/units-clocks-axes.md).
+DVL_Y_MIN_Q = IMU_YAW_MIN_Q
+DVL_Y_MIN_RATIO = 1.25
+DVL_Y_DOUBT_Q = 20.0
+DVL_Y_DOUBT_RATIO = 1.1
+#: Why DVL pings read though their velocity's y fits the IMU better negated (:data:`DVL_Y_DOUBT_Q`) are counted.
+DVL_Y_DOUBT = "DVL velocity y fitting the IMU better negated (or the IMU mirrored)"
+
+
+@dataclasses.dataclass(frozen=True)
+class DvlYFit:
+    """What the DVL velocity's changes say of its y negated against the IMU (:func:`dvl_y_negated_fit`).
+
+    Attributes:
+        q_read: how much better the DVL y negated fits the IMU than as read (noise variances, :func:`imu_yaw_fit`'s).
+        ratio: the share of the velocity's changes left unexplained as read over y negated.
+        q_other: how much better than the best other axis error but FLU, named by ``other`` (nan when ``q_read`` is
+            under :data:`DVL_Y_DOUBT_Q`: not fitted).
+        q_flu: how much better than the DVL's y and z negated (FLU axes read as FRD), nan when not fitted.
+        other: the other axis error ``q_other`` is of.
+    """
+
+    q_read: float
+    ratio: float = float("nan")
+    q_other: float = float("nan")
+    q_flu: float = float("nan")
+    other: str = ""
+
+    @property
+    def clear(self) -> bool:
+        """The y negated fits clearly better than as read, and FLU not clearly better than it."""
+        return self.q_read >= DVL_Y_MIN_Q and self.ratio >= DVL_Y_MIN_RATIO and self.q_flu > -DVL_Y_MIN_Q
+
+    @property
+    def refused(self) -> bool:
+        """:attr:`clear`, and better than every other axis error but FLU as clearly."""
+        return self.clear and self.q_other >= DVL_Y_MIN_Q
+
+    def said(self, fixes: dict, kept: bool = False) -> str:
+        """What the fit says of the DVL's y, with ``fixes["y"]`` (and ``fixes["flu"]`` where FLU fits about as well)
+        and the mirrored IMU it cannot be told from; ``kept``: said of a velocity kept as read (a warning)."""
+        flu = ("" if self.q_flu >= DVL_Y_MIN_Q else
+               f" (or its y and z negated, FLU axes read as FRD, which fit {abs(self.q_flu):.3g} noise variances "
+               f"{'worse' if self.q_flu > 0 else 'better'}: {fixes['flu']})")
+        to_refuse = " to refuse it" if kept else ""
+        return (("the DVL velocity's y may be negated against the IMU (kept as read)" if kept else
+                 "the DVL velocity's y is negated against the IMU")
+                + f": the accelerometer and gyro leave {self.ratio:.3g}x as much of the velocity's changes "
+                f"unexplained as read as with its y negated ({DVL_Y_MIN_RATIO:g}x needed{to_refuse}), which fits "
+                f"better by {self.q_read:.3g} noise variances than as read, and by {self.q_other:.3g} than with "
+                f"{self.other} ({DVL_Y_MIN_Q:g} needed): a DVL frame taken left-handed (a sign in the driver, an "
+                f"instrument frame read as the ship's)? {fixes['y']}{flu}. Or the IMU is mirrored (its "
+                "accelerometer y and gyro x and z negated, which its own tilt kinematics cannot tell; imu_axis_signs "
+                "negates both sensors alike and cannot undo it): then negate those IMU columns of the file instead")
+
+
+def dvl_y_negated_fit(read, imu, dvl, config) -> DvlYFit:
+    """How much better the clock model ``read`` (the DVL as read on the IMU, at its stamps as they stand) fits with
+    the DVL velocity's y negated (:data:`DVL_Y_NEGATED`), and, where it fits better by :data:`DVL_Y_DOUBT_Q`, than
+    with the other axis errors that fit a y negated partly: the DVL's y and z negated (FLU), the IMU turned 90, 180 or
+    270 deg about z (:func:`imu_turned_models`) and its y negated on both sensors (:func:`imu_y_negated_model`). A
+    vehicle whose sideways velocity never changes (no current, no lever arm, no sideslip in turns) shows none of it."""
+    negated = dvl_window_model(imu, dvl, config, transform=DVL_Y_NEGATED, ints=read.imu)[0]
+    fits = _best_fits({0: read, "y": negated}, (0.0,))
+    q_read = _evidence(fits[0], fits["y"])
+    ratio = fits[0][0] / max(fits["y"][0], 1e-300)
+    if not (q_read >= DVL_Y_DOUBT_Q and ratio >= DVL_Y_DOUBT_RATIO):
+        return DvlYFit(q_read, ratio)
+    others = {f"the IMU turned {yaw} deg about z": m for yaw, m in imu_turned_models(read, imu, dvl, config).items()
+              if yaw}
+    others["the IMU's y negated on both sensors"] = imu_y_negated_model(imu, dvl, config)
+    others["FLU"] = dvl_window_model(imu, dvl, config, transform=DVL_FLU, ints=read.imu)[0]
+    fits.update(_best_fits({0: read, **others}, (0.0,)))
+    q = {k: _evidence(fits[k], fits["y"]) for k in others}
+    other = min((k for k in q if k != "FLU"), key=q.get)
+    return DvlYFit(q_read, ratio, q[other], q["FLU"], other)
+
+
+def check_dvl_y(imu, dvl, config, meta: dict, read, field: str, fixes: dict) -> str:
+    """DataError naming the DVL file and its columns ``field`` when the DVL velocity fits the IMU better with its y
+    negated than as read and than every other axis error (:func:`dvl_y_negated_fit`) by :data:`DVL_Y_MIN_Q` noise
+    variances and :data:`DVL_Y_MIN_RATIO`, with ``fixes["y"]``; by :data:`DVL_Y_DOUBT_Q` and :data:`DVL_Y_DOUBT_RATIO`
+    a warning, noted and counted (:data:`DVL_Y_DOUBT`). The velocity's changes cannot tell a DVL y negated from an IMU
+    mirrored: both are named. Where the DVL's y and z negated (FLU) fits clearly better, the FLU check is left to say
+    it; where about as well, it is named too. Where the y negated fits clearly better than as read but a turn of the
+    IMU about as well (a vehicle moving sideways, whose x changes little), the sentence :func:`check_imu_yaw`'s refusal
+    of the turn adds is returned; else ""."""
+    fit = dvl_y_negated_fit(read, imu, dvl, config)
+    if fit.clear and abs(fit.q_other) < DVL_Y_MIN_Q:
+        return (f". Or the DVL velocity's y is negated (or the IMU mirrored: its accelerometer y and gyro x and z "
+                f"negated): that fits {fit.q_read:.3g} noise variances better than as read and within "
+                f"{abs(fit.q_other):.0f} of {fit.other}; if so, {fixes['y']}")
+    if not (min(fit.q_read, fit.q_other) >= DVL_Y_DOUBT_Q and fit.ratio >= DVL_Y_DOUBT_RATIO
+            and fit.q_flu > -DVL_Y_DOUBT_Q):
+        return ""
+    if fit.refused:
+        raise DataError(fit.said(fixes), dvl.source, field=field)
+    say_doubted(meta, "dvl", dvl.source, f"field '{field}': {fit.said(fixes, kept=True)}", DVL_Y_DOUBT, len(dvl.t),
+                stacklevel=3)
+    return ""
 
 
 def _best_fits(models: dict, offsets) -> dict:
@@ -340,7 +461,7 @@ def _forward_turned_back(course: float, turn: float) -> bool:
 
 
 def check_imu_yaw(imu, dvl, config, meta: dict, frame: dict, model=None, offsets=(0.0,),
-                  carried: bool = False) -> int | None:
+                  carried: bool = False, or_dvl_y: str = "") -> int | None:
     """DataError naming the IMU file, its six columns (``frame["fields"]``), the declared frame (``frame["what"]``)
     and the turn that fits, when a DVL velocity pointing forward (in the body frame) fits the IMU's accelerations
     better with the IMU turned 90, 180 or 270 deg about z (:func:`imu_yaw_fit`, :data:`IMU_YAW_MIN_Q`): an IMU
@@ -352,7 +473,8 @@ def check_imu_yaw(imu, dvl, config, meta: dict, frame: dict, model=None, offsets
     ``model``: the clock model when built already; ``offsets``: s added to its DVL stamps, each fit read at its best
     of them (:func:`imu_yaw_fit`; several where the DVL's clock is not known closer). ``carried``: a velocity
     kept as body in a current (:data:`~graphnav.io.dvl_frame.CARRIED`), whose direction says nothing of the vehicle's
-    forward: a turn that fits better is refused naming both instruments.
+    forward: a turn that fits better is refused naming both instruments. ``or_dvl_y``: the sentence naming the DVL's
+    y negated, which fits about as well as the turn (:func:`check_dvl_y`), added to a refusal of the turn.
     """
     try:
         model = model or judging_model(imu, dvl, config)
@@ -363,13 +485,14 @@ def check_imu_yaw(imu, dvl, config, meta: dict, frame: dict, model=None, offsets
     models = imu_turned_models(model, imu, dvl, config)
     q, yaw, q_next = imu_yaw_fit(models, offsets)
     undecided = meta.get("imu_axis_signs", {}).get("decided") is False
-    or_y = ""
+    or_y = or_dvl_y
     if q >= IMU_YAW_MIN_Q or undecided:
         # a y negated on both sensors fits a vehicle that turns more than it speeds up turned 180 deg
         # each fit at its own best offset over the whole search: the one offset the velocity's scale fit chose for
         # the IMU as read is where its wrong y fits best (20 s off on a level vehicle at 1.5 m/s), favouring the turn
         wide = offsets if carried else np.union1d(offsets, SCALE_OFFSETS_S)
-        or_y = check_imu_y(imu, config, meta, frame, judge_imu_y(models, imu, dvl, config, yaw, wide), undecided)
+        or_y = check_imu_y(imu, config, meta, frame, judge_imu_y(models, imu, dvl, config, yaw, wide),
+                           undecided) + or_dvl_y
     if carried and q >= IMU_YAW_MIN_Q:
         raise _unless_declared_earth(meta, _either_turned(imu, dvl, frame, q, yaw, float("nan"), carried), or_y)
     course = _course(dvl, config) if q >= IMU_YAW_MIN_Q else 0.0
@@ -804,7 +927,11 @@ def check_velocity_against_imu(imu, dvl, config, meta: dict, moved: bool = False
     current (``meta[CARRIED]``, :func:`graphnav.io.dvl_frame.check_not_earth_frame`) is judged by no mean direction.
     ``clock_known`` False: the DVL stamps have still to be judged by a clock search (``clock: auto``), so the turn at
     them is taken up to a half turn where another offset fits as well turned back, and FLU axes are judged at each
-    reading's own best offset too (:func:`check_flu_axes`)."""
+    reading's own best offset too (:func:`check_flu_axes`), and the velocity's y is not judged: a velocity that fits
+    clearly better with its y negated at them is judged only after the search (its y negated misleads the scale, turn
+    and FLU fits: A-KIT pieces were refused as FLU, an IMU turned or a wrong unit). Otherwise (the stamps on the IMU
+    clock as declared, given or found) the y is judged at them first (:func:`check_dvl_y`; 30 s off its clock a clean
+    velocity fitted the IMU 1.28x better with its y negated)."""
     field = field or meta.get("stream_fields", {}).get("dvl", "velocity")
     try:
         model = judging_model(imu, dvl, config)
@@ -820,6 +947,19 @@ def check_velocity_against_imu(imu, dvl, config, meta: dict, moved: bool = False
         # the columns listed as the loader's own check lists them
         check_not_earth_frame(*dvl_velocity_b(dvl, config), imu.t, imu.omega_b, dvl.source, field.split(", "),
                               velocity_frame(config, meta), imu.f_b, meta=meta, own_offsets=True)
+    # before the scale and turn fits, which a mirrored velocity misleads (a 1.57x scale; an IMU turned 90 deg); not
+    # where the frame checks found the velocity in another frame than declared: an earth-fixed one fits no body axes
+    if meta.get(KEPT_AS_DECLARED):
+        or_dvl_y = ""
+    elif not clock_known:
+        if dvl_y_negated_fit(model, imu, dvl, config).refused:
+            # judged once the clock search has put it on the IMU clock, with its y negated where only that finds it
+            add_note(meta, "dvl", "its unit, turn and axes judged against the IMU only on its clock: at its stamps "
+                                  "its velocity fits the IMU better with its y negated")
+            return
+        or_dvl_y = ""
+    else:
+        or_dvl_y = check_dvl_y(imu, dvl, config, meta, model, field, fixes)
     best, fits = best_speed_fit(model, SCALE_OFFSETS_S)
     scale, r2, _ = fits[best]
     # the turn over the windows no outage crosses (MAX_TURN_GAP_S): the scale is a ratio an outage barely moves
@@ -846,7 +986,7 @@ def check_velocity_against_imu(imu, dvl, config, meta: dict, moved: bool = False
         # and where another offset fits as well turned back (a speed swinging with a period) its best is noise too
         fixed = r2 >= MIN_SCALE_R2 and not sign_free
         offsets = ((0.0,) if carried else (SCALE_OFFSETS_S[best],) if fixed else SCALE_OFFSETS_S)
-        dvl_turn = check_imu_yaw(imu, dvl, config, meta, imu_frame, model, offsets, carried)
+        dvl_turn = check_imu_yaw(imu, dvl, config, meta, imu_frame, model, offsets, carried, or_dvl_y)
     if turned:
         _say_dvl_turned(dvl, meta, field, fixes, f"the DVL velocity is turned {np.degrees(yaw):+.1f} deg about z from "
                         f"the IMU's axes (the fit explains {turn_r2:.2f} of its changes): columns in the instrument "

@@ -828,7 +828,8 @@ def _prepare_streams(mission: Mission, meta: dict, facts: dict) -> Mission:
         # however the DVL got onto the IMU clock: searched, or by a given offset the search left as it is (or
         # ``clock: imu``); before the given offset is judged, which a velocity in other units or axes misleads. One
         # the loader kept as carried by a current off the IMU clock was judged for an earth frame at its own offsets
-        _judge_dvl_against_imu(mission, dvl, meta, facts, unchecked, moved=judged or not meta.get(CARRIED))
+        _judge_dvl_against_imu(mission, dvl, meta, facts, unchecked, moved=judged or not meta.get(CARRIED),
+                               clock_known=not (facts.get("dvl_clock") == AUTO and dvl is searched and not given))
     if given is not None:
         _judge_given_dvl_clock(mission, searched, dvl, meta, facts, float(given))
     # after the DVL has judged the gyro (on its clock too): the reference's offset integrates the gyro as converted
@@ -894,8 +895,9 @@ def _judge_dvl_against_imu(mission: Mission, dvl: DvlData, meta: dict, facts: di
     reference checked), the IMU's turn about z (:func:`graphnav.calibration.dvl_scale.check_velocity_against_imu`).
     ``moved``: the DVL was put on the IMU clock here (by the clock search or a given ``dvl_time_offset_s``), where the
     loader could not check it for an earth frame by the body kinematics: checked too. ``clock_known`` False: stamps a
-    clock search has still to judge (``clock: auto``), at which FLU axes are not judged alone. DataError or warnings
-    as those say."""
+    clock search has still to judge (``clock: auto``), or that it found no clock for, at which FLU axes are not judged
+    alone and the DVL's y is not judged (only on stamps on the IMU clock as declared, given or found). DataError or
+    warnings as those say."""
     from graphnav.calibration.dvl_scale import check_declared_velocity_unit, check_velocity_against_imu
     check_declared_velocity_unit(mission.imu, dvl, mission.config, meta, judged_velocity_unit(meta))
     check_velocity_against_imu(mission.imu, dvl, mission.config, meta, moved=moved, imu_frame=imu_frame,
@@ -1111,6 +1113,7 @@ def _clock_searched(run, search, imu: ImuData, dvl: DvlData, config: SensorConfi
         raise
     _unit_finds_the_clock(None, search, found[1], dvl, config, meta, declared, fixes)
     _turn_finds_the_clock_on_the_span(search, found[1], dvl, config, meta, fixes, frame, declared)
+    _y_finds_the_clock_on_the_span(search, found[1], dvl, config, meta, fixes)
     return found
 
 
@@ -1385,6 +1388,37 @@ def _turn_finds_the_clock_on_the_span(search, imu: ImuData, dvl: DvlData, config
         return
     err = DataError(f"{_clock_not_found_said(est)} with the stamps on the IMU span", *_where(None, dvl, meta, fixes))
     _turn_finds_the_clock(err, search, imu, dvl, config, meta, fixes, frame, declared, tries=1)
+
+
+def _y_finds_the_clock_on_the_span(search, imu: ImuData, dvl: DvlData, config: SensorConfig, meta: dict,
+                                   fixes: dict) -> None:
+    """A DVL on the IMU span for which the clock search ``search(imu, meta, dvl) -> offset`` found no clear offset
+    (``meta["clock_offsets"]["dvl"]`` not confident) and whose velocity, at its stamps, fits the IMU clearly better
+    with its y negated (:attr:`~graphnav.calibration.dvl_scale.DvlYFit.refused`): searched again with the y negated,
+    a DataError naming the y (and the mirrored IMU) where that finds a clear clock. A y negated, or an IMU mirrored,
+    leaves the velocity's changes unexplained at every offset: A-KIT 60 s pieces with the DVL's y negated were loaded
+    with the clock not found and the y unjudged (judged only on a clock known: at stamps seconds off, a clean velocity
+    can fit better with its y negated, which the clock found then settles)."""
+    from graphnav.calibration.dvl_scale import DVL_Y_NEGATED, dvl_y_negated_fit, judging_model
+    from graphnav.io.dvl_frame import KEPT_AS_DECLARED
+    est = meta.get("clock_offsets", {}).get("dvl")
+    if est is None or est["confident"] or not on_the_imu_clock(dvl.t, imu.t) or meta.get(KEPT_AS_DECLARED):
+        return
+    try:
+        fit = dvl_y_negated_fit(judging_model(imu, dvl, config), imu, dvl, config)
+    except DataError:
+        return
+    if not fit.refused:
+        return
+    t, v = dvl_velocity_b(dvl, config)
+    found = _trial_estimate(search, imu, DvlData(t, *no_beams(len(t)), v @ DVL_Y_NEGATED.T, source=dvl.source),
+                            meta)
+    if found is None or not found["confident"]:
+        return
+    raise DataError(f"{_clock_not_found_said(est)} with the stamps on the IMU span; but with its y negated the DVL "
+                    f"finds its clock at {found['offset_s']:+.3f} s (the IMU explains {found['peak']:.2f} of its "
+                    f"velocity changes there, {found['second_peak']:.2f} at the next best offset): not the clock but "
+                    f"{fit.said(fixes)}", *_where(None, dvl, meta, fixes))
 
 
 #: A turn left over after the quarter turn a clock was found with, deg, from which the turn is said to be "about" it.

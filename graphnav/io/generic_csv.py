@@ -54,10 +54,12 @@ counted), when the file's other values are finer than 1 mm/s or the pings around
 ``frame`` says which frame the ``v_b`` columns are in: body (default), flu, instrument (turned by ``dvl.C_d_b``),
 ned or enu (with the DVL's ``euler`` roll, pitch, heading columns and their ``angle_unit``); an
 undeclared earth-frame, knots or FLU velocity is refused (:mod:`graphnav.io.dvl_frame`,
-:mod:`graphnav.calibration.dvl_scale`); a declared vehicle frame the earth-frame checks contradict is kept, warned
-about and counted; a declared earth frame is checked turned to body by its attitude columns: columns in the vehicle's
-frame, which the attitude then turns with the vehicle, are refused naming the key and ``body`` where the body kinematics
-say so clearly, else kept, warned about and counted. Instead of CSV columns, ``"dvl": {"pd0": "file.000"}`` reads a
+:mod:`graphnav.calibration.dvl_scale`), and so is a velocity with its y negated (or an IMU mirrored) where the
+vehicle's sideways velocity changes enough to show it (a current, a lever arm, sideslip in turns); a declared
+vehicle frame the earth-frame checks contradict is kept, warned about and counted; a declared earth frame is checked
+turned to body by its attitude columns: columns in the vehicle's frame, which the attitude then turns with the vehicle,
+are refused naming the key and ``body`` where the body kinematics say so clearly, else kept, warned about and
+counted. Instead of CSV columns, ``"dvl": {"pd0": "file.000"}`` reads a
 Teledyne PD0 file (:mod:`graphnav.io.pd0`) recorded in any RDI frame (beam, instrument, ship or earth: rotated back to
 beams; 3-beam solutions become ``DvlData.v_d``), whose stamps are Unix seconds: the IMU stamps must then be Unix too;
 what the file read and refused is in ``meta["streams"]``.

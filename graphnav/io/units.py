@@ -1640,10 +1640,14 @@ def check_units(streams, config=None, meta: dict | None = None, declared: Mappin
 DECLARE_DVL_FIXES = {"declare": True, "unit": "",
                      "yaw": "declare csv_columns.dvl.frame 'instrument' with dvl.C_d_b (graphnav calibrate estimates "
                             "it and writes both)",
-                     "flu": "declare csv_columns.dvl.frame 'flu'"}
+                     "flu": "declare csv_columns.dvl.frame 'flu'",
+                     "y": "negate the y velocity column in the file (no configuration key mirrors a DVL frame: "
+                          "dvl.C_d_b must be a rotation)"}
 #: The same for a bag, whose message fixes its unit and axes: a mounting turn is given as ``dvl.C_d_b``.
 BAG_DVL_FIXES = {**DECLARE_DVL_FIXES,
-                 "yaw": "give the DVL's mounting as dvl.C_d_b in the configuration (graphnav calibrate estimates it)"}
+                 "yaw": "give the DVL's mounting as dvl.C_d_b in the configuration (graphnav calibrate estimates it)",
+                 "y": "negate the velocity's y where the message is written (the driver): no configuration key "
+                      "mirrors a DVL frame (dvl.C_d_b must be a rotation)"}
 #: The same for an A-KIT folder, whose format is fixed (m/s; DVL columns in the DVL's frame, turned to body by
 #: ``dvl.C_d_b``, identity unless a configuration gives it; the loader converts mm/s itself): a unit or FLU axes are
 #: converted in the file, a mounting turn given as ``dvl.C_d_b``. ``"declare"`` False: a turn found is refused
@@ -1654,7 +1658,9 @@ AKIT_DVL_FIXES = {"declare": False,
                   "yaw": "give the DVL's mounting as dvl.C_d_b in a --config file (the turn about z above, undone; "
                          "graphnav calibrate estimates it against a GT), or turn the DVL velocity columns of the file "
                          "into the body frame",
-                  "flu": "negate the y and z DVL velocity columns of the file (an A-KIT folder's are body FRD)"}
+                  "flu": "negate the y and z DVL velocity columns of the file (an A-KIT folder's are body FRD)",
+                  "y": "negate the DVL Y column of the file (an A-KIT folder's are body FRD; no configuration key "
+                       "mirrors a DVL frame: dvl.C_d_b must be a rotation)"}
 
 
 __all__ = ["check_units", "DECLARE_DVL_FIXES", "BAG_DVL_FIXES", "AKIT_DVL_FIXES", "stamps_in_seconds", "imu_units",
