@@ -950,3 +950,46 @@ def test_imu_and_dvl_messages_published_twice_are_dropped_or_doubted_naming_the_
     assert m.meta["streams"]["dvl"]["doubted"] == {CLOSE_SAMPLES: 1} and not m.meta["streams"]["dvl"]["refused"]
     assert any(w.startswith(f"{path}:/dvl/data: 1 dvl row(s) stamped under a fifth of the median step")
                and f"at message 21 (t = {t_dvl + 1e-3:.3f} s)" in w for w in warned), warned
+
+
+def test_an_ahrs_imu_topic_read_as_the_heading_is_not_doubted_for_its_clock_and_its_copies_are_said_once(sim, tmp_path):
+    """The IMU topic of an AHRS (orientation filled) is also the heading source. Stamped on receipt, one sample in
+    seven 9 ms late (the next 1 ms after it), its heading was doubted as two samples where the stream makes one
+    (571 of 4001 on this 40 s bag), though the IMU's own steps say nothing of it; and a message of it published
+    twice was warned about twice. Now an IMU topic's close steps are left to the
+    IMU's stamp checks, and its copy is warned about once (counted for both streams, as its other refusals)."""
+    import warnings
+    from rosbags.highlevel import AnyReader
+    from scipy.spatial.transform import Rotation
+    from graphnav.core.screening import NUDGED_COPY
+    mission, config, paths, _ = sim
+    store = bags.typestore()
+    Q = store.types["geometry_msgs/msg/Quaternion"]
+    rows, k = [], 0
+    with AnyReader([paths["mcap"]], default_typestore=store) as reader:
+        for conn, t_ns, raw in reader.messages():
+            msg = store.deserialize_cdr(raw, conn.msgtype)
+            if conn.topic == "/imu/data":
+                q = Rotation.from_euler("z", 0.3 + 1e-4 * k).as_quat()
+                msg.orientation = Q(x=q[0], y=q[1], z=q[2], w=q[3])
+                msg.orientation_covariance = np.diag([1e-4] * 3).ravel()
+                ns = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec + (9_000_000 if k % 7 == 3 else 0)
+                msg.header.stamp.sec, msg.header.stamp.nanosec = ns // 1_000_000_000, ns % 1_000_000_000
+                if k == 2001:
+                    rows.append((conn.topic, conn.msgtype, t_ns, msg))
+                    msg = store.deserialize_cdr(store.serialize_cdr(msg, conn.msgtype), conn.msgtype)
+                    ns += 1_000_000
+                    msg.header.stamp.sec, msg.header.stamp.nanosec = ns // 1_000_000_000, ns % 1_000_000_000
+                    t_ns += 1_000_000
+                k += 1
+            rows.append((conn.topic, conn.msgtype, t_ns, msg))
+    path = _bag_with(tmp_path, "ahrs", sorted(rows, key=lambda r: r[2]), store)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        m = load_mission(path, config, prepare=False)
+    warned = [str(w.message) for w in caught]
+    assert m.meta["heading_source"] == "/imu/data (sensor_msgs/msg/Imu)" and len(m.heading.t) == k
+    assert "doubted" not in m.meta["streams"]["heading"], m.meta["streams"]["heading"]
+    assert not [w for w in warned if "heading row(s)" in w]
+    assert len([w for w in warned if "row(s) repeating the row before them" in w]) == 1, warned
+    assert m.meta["streams"]["imu"]["refused"] == m.meta["streams"]["heading"]["refused"] == {NUDGED_COPY: 1}

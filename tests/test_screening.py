@@ -2908,3 +2908,51 @@ def test_a_live_stream_refuses_a_sample_sent_again_a_moment_later_not_samples_at
     pings = [(k * 1.0, (float(rng.normal()), None, float(rng.normal()), float(rng.normal()))) for k in range(30)]
     pings.insert(21, (20.001, pings[20][1]))
     assert [k for k, (a, x) in enumerate(pings) if test.is_copy(a, x)] == [21]
+
+
+def test_a_live_dvl_changing_its_ping_rate_at_rest_is_not_refused_as_pings_sent_again():
+    """A DVL pinging at 2 Hz in the water column, then at 20 Hz near the bottom, where it sits at rest on 1 mm/s
+    counts: live, its fast pings were judged against the median of the latest 101 steps (0.5 s) until 51 fast steps
+    had come, and 15-31 of those pings, equal to the one before, were refused as sent again (a file drops none). The
+    latest steps' median follows the new rate within three steps to a ping with other counts: only the first run of
+    pings equal to the one before after the change may be refused (nothing live tells them from copies); a ping sent
+    again 1 ms later while moving at 20 Hz still is."""
+    from graphnav.core.screening import NudgedCopies, nudged_copies
+    rng = np.random.default_rng(0)
+    slow = np.arange(600) * 0.5
+    t = np.concatenate([slow, slow[-1] + 0.05 * np.arange(1, 1601)])
+    beams = np.concatenate([rng.normal(1.0, 0.05, (600, 4)), np.round(rng.normal(0.0, 3e-4, (600, 4)), 3),
+                            rng.normal(0.3, 0.01, (1000, 4))])
+    at_rest_equal = np.all(beams[601:1200] == beams[600:1199], axis=1)
+    assert at_rest_equal.sum() > 200
+    first_run = int(np.argmin(at_rest_equal))
+    assert 3 <= first_run < 10
+    assert nudged_copies(t, np.column_stack([t, beams]))[0].size == 0
+    t, beams = np.insert(t, 2001, t[2000] + 0.001), np.insert(beams, 2001, beams[2000], axis=0)
+    test = NudgedCopies()
+    refused = [k for k in range(len(t)) if test.is_copy(float(t[k]), tuple(beams[k].tolist()))]
+    assert refused[-1] == 2001 and set(refused[:-1]) <= set(range(601, 601 + first_run)), refused
+
+
+def test_a_stream_whose_every_sample_is_written_again_a_moment_later_loses_every_copy_offline_and_live():
+    """Every DVL ping written again 1-2 ms later (two publishers on one topic, a relay re-stamping): half the steps
+    were copies, their median the copies' 1 ms, so no copy was under half of it: all kept, each ping weighed twice,
+    with no word, offline (a bag, a log) and live. The usual step is now the one between samples that differ: every
+    copy goes, and an IMU at rest on coarse counts jittering by up to 4 ms still loses none."""
+    from graphnav.core.screening import NudgedCopies, nudged_copies
+    rng = np.random.default_rng(7)
+    t_ping = np.arange(300) * 1.0 + rng.uniform(-0.05, 0.05, 300)
+    pings = rng.normal(0.0, 1.0, (300, 4))
+    t = np.ravel(np.column_stack([t_ping, t_ping + rng.uniform(0.001, 0.002, 300)]))
+    beams = np.repeat(pings, 2, axis=0)
+    copies = list(range(1, 600, 2))
+    assert nudged_copies(t, np.column_stack([t, beams]))[0].tolist() == copies
+    test = NudgedCopies()
+    refused = [k for k in range(len(t)) if test.is_copy(float(t[k]), tuple(beams[k].tolist()))]
+    assert refused == [k for k in copies if k > 2 * 10], refused    # judged once 10 steps are known
+    n = 3000
+    t = np.arange(n) * 0.01 + rng.uniform(-0.004, 0.004, n)
+    at_rest = np.round(rng.normal(0.0, 0.02, (n, 6)) / 0.05) * 0.05 + [0, 0, -9.8, 0, 0, 0]
+    assert nudged_copies(t, np.column_stack([t, at_rest]))[0].size == 0
+    test = NudgedCopies()
+    assert not any(test.is_copy(float(a), tuple(x)) for a, x in zip(t, at_rest.tolist()))

@@ -1084,8 +1084,8 @@ def usual_steps(step: np.ndarray) -> np.ndarray:
 def nudged_copies(t: np.ndarray, rows: np.ndarray) -> tuple[np.ndarray, float]:
     """``(indexes, s)``: the indexes (file order, sorted) of the rows (``rows`` (N,k) as read, their stamps ``t``
     (N,) s) that repeat the row before them in time in every value but the stamp, with a stamp later by less than
-    :data:`NUDGED_COPY_STEP_SHARE` of the median positive step near it (:func:`usual_steps`): the same sample written
-    twice, its stamp nudged. Rows
+    :data:`NUDGED_COPY_STEP_SHARE` of the median step between rows that differ near it
+    (:func:`steps_between_readings`): the same sample written twice, its stamp nudged, however many rows are. Rows
     of a stream whose readings repeat across whole steps near them as often (:func:`readings_repeat_near`: an IMU at
     rest with coarse counts, a depth held on coarse counts) may be samples jitter or a burst moved close: not those.
     ``s``: the largest such nudge, s."""
@@ -1098,7 +1098,7 @@ def nudged_copies(t: np.ndarray, rows: np.ndarray) -> tuple[np.ndarray, float]:
     values = ~_stamp_columns(rows, t)
     a, b = rows[order][:-1][:, values], rows[order][1:][:, values]
     equal = np.all((a == b) | (np.isnan(a) & np.isnan(b)), axis=1)
-    short = (step > 0) & (step < NUDGED_COPY_STEP_SHARE * usual_steps(step))
+    short = (step > 0) & (step < NUDGED_COPY_STEP_SHARE * steps_between_readings(step, equal))
     copy = short & equal
     if copy.any():
         moving = np.flatnonzero(step > 0)
@@ -1107,6 +1107,19 @@ def nudged_copies(t: np.ndarray, rows: np.ndarray) -> tuple[np.ndarray, float]:
     if not copy.any():
         return np.zeros(0, int), 0.0
     return np.sort(order[1:][copy]), float(np.max(step[copy]))
+
+
+def steps_between_readings(step: np.ndarray, equal: np.ndarray) -> np.ndarray:
+    """(len(step),) s: :func:`usual_steps` of a stream's steps ``step`` (s, in time order) from a row to one with
+    other values (``equal``: each row equal in every value to the one before it), each step given that of the
+    nearest such step from it on (else before it); inf at a step not positive. Copies do not set the stream's step:
+    with every DVL ping written again 1 ms later, half the steps are 1 ms, their median too, and none was a copy
+    (every ping weighed twice, with no word). :func:`usual_steps` of all the steps when fewer than two differ."""
+    differ = np.flatnonzero((step > 0) & ~equal)
+    if differ.size < 2:
+        return usual_steps(step)
+    nearest = np.minimum(np.searchsorted(differ, np.arange(len(step))), differ.size - 1)
+    return np.where(step > 0, usual_steps(step[differ])[nearest], np.inf)
 
 
 def say_nudged_copies(nudged: np.ndarray, moved: float, source: str, lines: np.ndarray | None = None,
@@ -1221,21 +1234,29 @@ class RecentRepeats:
 #: Positive steps of a live stream whose median is its usual step (:class:`NudgedCopies`), and how many it needs first.
 NUDGED_STEP_WINDOW = 101
 NUDGED_MIN_STEPS = 10
+#: The latest positive steps (the newest included) whose median stands for the usual step when smaller
+#: (:class:`NudgedCopies`): a stream changing its rate (a DVL from 2 Hz to 20 Hz near the bottom) has its new step
+#: there within three samples, where the median of :data:`NUDGED_STEP_WINDOW` steps lags 50; one or two copies
+#: among them leave it the stream's step.
+NUDGED_RECENT_STEPS = 5
 
 
 class NudgedCopies:
     """:func:`nudged_copies` on a live stream, sample by sample: a sample repeating the one received before it in every
     value, stamped later by under :data:`NUDGED_COPY_STEP_SHARE` of the median of the latest
-    :data:`NUDGED_STEP_WINDOW` positive steps, is the same sample sent twice, its stamp nudged; unless the stream's
-    readings repeat across whole steps as often as across such short ones over the latest
-    :data:`REPEAT_WINDOW_STEPS` steps (:meth:`RecentRepeats.repeat_across`: an IMU at rest with coarse counts, a depth
-    held on coarse counts, whose samples jitter may move close). Judged once :data:`NUDGED_MIN_STEPS` steps are
-    known; a sample at or before the one before it is left to the stamp checks."""
+    :data:`NUDGED_STEP_WINDOW` positive steps to a sample with other values (or of the latest
+    :data:`NUDGED_RECENT_STEPS` such steps, when smaller: a stream changing its rate, as :func:`usual_steps` takes the
+    smaller of the blocks near a step; copies do not set the step, as in :func:`steps_between_readings`), is the same
+    sample sent twice, its stamp nudged; unless the stream's readings repeat across whole steps as often as across
+    such short ones over the latest :data:`REPEAT_WINDOW_STEPS` steps (:meth:`RecentRepeats.repeat_across`: an IMU at
+    rest with coarse counts, a depth held on coarse counts, whose samples jitter may move close). Judged once
+    :data:`NUDGED_MIN_STEPS` such steps are known; a sample at or before the one before it is left to the stamp
+    checks."""
 
     def __init__(self):
         self._last: tuple[float, tuple] | None = None
         self._steps: deque[float] = deque(maxlen=NUDGED_STEP_WINDOW)
-        self._n = 0                         # positive steps seen
+        self._n = 0                         # positive steps seen to a sample with other values
         self._usual = math.inf              # their median, refreshed every tenth step, s
         self._repeats = RecentRepeats()     # "within a stamp" here: a step under the share of the usual one
 
@@ -1247,13 +1268,17 @@ class NudgedCopies:
             return False
         step = t - last[0]
         equal = values == last[1]
-        self._steps.append(step)
-        self._n += 1
+        if not equal:
+            self._steps.append(step)
+            self._n += 1
+            if self._n % 10 == 0:
+                self._usual = statistics.median(self._steps)     # of 101 floats: a sort, faster than numpy's
         if self._n < NUDGED_MIN_STEPS:
             return False
-        if self._n % 10 == 0:
-            self._usual = statistics.median(self._steps)     # of 101 floats: a sort, faster than numpy's
         short = step < NUDGED_COPY_STEP_SHARE * self._usual
+        if short:           # rare on a steady stream: only then the latest steps' median
+            recent = statistics.median(list(self._steps)[-NUDGED_RECENT_STEPS:])
+            short = step < NUDGED_COPY_STEP_SHARE * recent
         self._repeats.add(short, equal)
         return short and equal and not self._repeats.repeat_across()
 

@@ -96,13 +96,44 @@ def _named(index: np.ndarray, t_ns: np.ndarray, t0_ns: int) -> list[str]:
 def message_values(rows: list) -> np.ndarray:
     """(N,k) every number each decoded message holds but its header (the stamp and, in ROS 1, a sequence number that
     a message published again changes), in field order, with each array's length; rows shorter than the longest
-    padded with NaN. Strings (frame ids) are left out."""
+    padded with NaN. Strings (frame ids) are left out. Read field by field over the topic (a third of the time of
+    message by message, which added 30 us to the 43 us of decoding an IMU message) unless an array's length varies
+    between messages."""
+    columns: list = []
+    if rows and _columns(rows, columns):
+        return np.column_stack(columns) if columns else np.zeros((len(rows), 0))
     values = [_numbers(m, []) for m in rows]
     width = max((len(v) for v in values), default=0)
     out = np.full((len(values), width), np.nan)
     for i, v in enumerate(values):
         out[i, :len(v)] = v
     return out
+
+
+def _columns(msgs: list, out: list) -> bool:
+    """:func:`message_values`' columns of the messages ``msgs`` (each (N,)) added to ``out``, as :func:`_numbers`
+    lays them; False (``out`` then unusable) when an array's or a list's length varies between them."""
+    return all(_column([getattr(m, name) for m in msgs], out) for name in msgs[0].__dataclass_fields__
+               if name != "header")
+
+
+def _column(values: list, out: list) -> bool:
+    v = values[0]
+    if isinstance(v, (bool, int, float, np.number)):
+        out.append(np.array(values, float))
+    elif isinstance(v, np.ndarray):
+        if any(x.shape != v.shape for x in values):
+            return False
+        out.append(np.full(len(values), float(v.size)))
+        out.extend(np.stack(values).reshape(len(values), -1).astype(float).T)
+    elif isinstance(v, (list, tuple)):
+        if any(len(x) != len(v) for x in values):
+            return False
+        out.append(np.full(len(values), float(len(v))))
+        return all(_column([x[j] for x in values], out) for j in range(len(v)))
+    elif hasattr(v, "__dataclass_fields__"):
+        return _columns(values, out)
+    return True
 
 
 def _numbers(msg, out: list) -> list:

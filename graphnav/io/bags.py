@@ -32,11 +32,12 @@ Message definitions: the bag's own (MCAP, rosbag2 >= Iron, ROS 1) first, else :m
 Stamps: :mod:`graphnav.io.bag_stamps` (header stamps when sane, else receive time; DVL/IMU clock offsets
 recorded, never dropped). A message published twice (every value but its header repeating an earlier message's at
 its header stamp, or the message before it under half a step later) is dropped, warned about naming the topic and
-the message, and counted, as a log's row written twice is; another stream's than the IMU's under a fifth of a step
-after the one before with other values is kept and doubted (:func:`graphnav.io.bag_convert.decoded_stream`,
-:func:`_record`). The mission clock starts at the first IMU stamp (``meta["t0_unix_ns"]``); every stream off
-the IMU's clock is moved onto it through the receive clock (:func:`_onto_imu_clock`). What each
-stream read, used and refused, and every repair, is in ``meta["streams"]``.
+the message, and counted, as a log's row written twice is (once, when the IMU's topic is also the heading); a
+message of a topic other than a ``sensor_msgs/Imu`` one (whose close steps are its clock's jitter or packets) under a
+fifth of a step after the one before with other values is kept and doubted
+(:func:`graphnav.io.bag_convert.decoded_stream`, :func:`_record`). The mission clock starts at the first IMU stamp
+(``meta["t0_unix_ns"]``); every stream off the IMU's clock is moved onto it through the receive clock
+(:func:`_onto_imu_clock`). What each stream read, used and refused, and every repair, is in ``meta["streams"]``.
 
 Writing (:func:`write_odometry_bag`): the estimates as ``nav_msgs/msg/Odometry`` in REP-103 frames
 (``odom`` ENU, ``base_link`` FLU) with the covariances in the frames and order ROS defines:
@@ -303,11 +304,11 @@ def read_streams(path: str | Path, topics: dict[str, str] | None = None, wanted:
             reader.close()
 
 
-def _record(meta: dict, stream: str, s: Stream, t0_ns: int, source: str) -> None:
+def _record(meta: dict, stream: str, s: Stream, t0_ns: int, source: str, warned: bool = False) -> None:
     """Counts and notes of a chosen topic: what it read (including messages its stamps could not order and those
-    written twice, warned about here), and, but for an IMU (whose steps :func:`graphnav.io.bag_convert.imu` says),
-    the messages stamped on the point of the one before them, doubted
-    (:func:`graphnav.core.screening.say_close_samples`), as a log's rows are."""
+    written twice, warned about here unless ``warned``: the IMU's topic read again as the heading), and, but for a
+    ``sensor_msgs/Imu`` topic (whose steps :func:`graphnav.io.bag_convert.imu` says), the messages stamped on the
+    point of the one before them, doubted (:func:`graphnav.core.screening.say_close_samples`), as a log's rows are."""
     t = (s.t_ns - t0_ns) / 1e9
     dropped = s.n_read - len(t)
     count_read(meta, stream, np.concatenate([t, np.full(dropped, np.nan)]), f"{source}:{s.topic} ({s.msgtype})",
@@ -317,8 +318,9 @@ def _record(meta: dict, stream: str, s: Stream, t0_ns: int, source: str) -> None
             count_refused(meta, stream, reason, n)
         for note in entry["notes"]:
             add_note(meta, stream, note)
-    conv.warn_written_twice(s, t0_ns, source)
-    if stream != "imu":
+    if not warned:
+        conv.warn_written_twice(s, t0_ns, source)
+    if s.msgtype != IMU:        # an AHRS's close steps are its clock's jitter or packets, as the IMU's are
         say_close_samples(t, None, f"{source}:{s.topic}", stream, meta, where=conv.messages(s, t0_ns), stacklevel=4)
 
 
@@ -392,7 +394,7 @@ def load_bag(path: str | Path, config: SensorConfig | None = None, topics: dict[
     heading = None
     h = _heading_stream(streams, topics, imu_s.topic, source, meta)
     if h is not None:
-        _record(meta, "heading", h, t0_ns, source)
+        _record(meta, "heading", h, t0_ns, source, warned=h is imu_s)
         heading = conv.heading(h, t0_ns, source, meta)
         meta["heading_source"] = f"{h.topic} ({h.msgtype})"
     else:
