@@ -116,6 +116,11 @@ SIGMA_GRID_STEPS = 4
 #: 60 s A-KIT piece with a 13 s outage, Trajectory1 from 240 s, 0.29 s off: sigma 0.83 s with its three windows'
 #: spread, which kept the fit from correcting the DVL's 2 s lag; 0.30 s without, 0.15 s read at 0.01 s).
 SPREAD_MIN_WINDOWS = 4
+#: ... and at most this many times the curvature's sigma: on noisy, lossy simulated logs (320 fits, 0.03-0.045 m/s
+#: beams) the spread was 0.9-1.0x it at the median, 1.9x at most; on clean ones whose windows misfit alike (600 s,
+#: 0.001 m/s beams, seed 107: 0.035 s off) 5x, which hid a given offset 0.3 s off (3 sigmas 0.35 s) and warned that
+#: the data barely fix an offset they fix to 0.04 s.
+SPREAD_MAX_RATIO = 2.0
 
 
 @dataclass
@@ -291,7 +296,7 @@ def _offset_sigma(model, x: float, use: np.ndarray) -> float:
     of the least-squares error of its cost's curvature and the spread of the windows' own pulls on it (the clustered
     sandwich ``sqrt(sum of g_w^2) / curvature``, g_w the slope of window w's SSE at ``x``), the curvature and slopes
     read over :data:`SIGMA_GRID_STEPS` steps of the IMU grid each way (the spread from :data:`SPREAD_MIN_WINDOWS`
-    windows).
+    windows, and to :data:`SPREAD_MAX_RATIO` times the curvature's at most).
 
     Why not the curvature at ``x`` alone: the IMU's integrals are interpolated linearly on their grid, so the cost has a
     kink wherever the ping stamps cross a grid node (all at once for pings on the IMU's stamps), and the best offset
@@ -315,7 +320,7 @@ def _offset_sigma(model, x: float, use: np.ndarray) -> float:
         return least_squares
     pulls = (above - below) / (2 * h)
     spread = float(np.sqrt(k / (k - 1) * np.sum(pulls ** 2)) / curvature)
-    return float(np.fmax(least_squares, spread))
+    return float(np.fmax(least_squares, np.fmin(spread, SPREAD_MAX_RATIO * least_squares)))
 
 
 def _beyond_the_near_search(imu, dvl, config, min_overlap_s: float, near: ClockOffset, model) -> ClockOffset:
