@@ -207,3 +207,23 @@ def test_a_short_akit_piece_whose_dvl_y_is_negated_is_refused_where_only_the_y_n
                                         r"the IMU: .* negate the y velocity column in the file") as err:
         load_mission(tmp_path, tmp_path / "config.json")
     assert err.value.source.endswith("DVL.csv")
+
+
+def test_a_long_level_log_whose_dvl_y_is_negated_is_not_left_to_the_flu_check_by_noise_variances_alone():
+    """A level vehicle turning in a current for 1 h, its DVL y negated: the y negated fits the IMU 2.7x better than
+    as read, and its y and z negated (FLU) 34 noise variances better still but 1.00x (its z barely changes): the y
+    was left to the FLU check, which needs 3x, and the log loaded silently. FLU is preferred only where it fits
+    clearly better by the share left unexplained too: the y is refused."""
+    import dataclasses
+
+    from test_dvl_frame import _simulated, _slow_in_current
+
+    from graphnav.calibration.dvl_scale import DVL_Y_MIN_Q, DVL_Y_MIN_RATIO, dvl_y_negated_fit, judging_model
+    from graphnav.core.mission import DvlData, no_beams
+    m, _, _ = _simulated(300.0)
+    t_imu, f_b, omega_b, t, v_b = _slow_in_current(1, 1.0, 0.3, duration=3600.0, tilt_deg=(0.0, 0.0))
+    imu = dataclasses.replace(m.imu, t=t_imu, f_b=f_b, omega_b=omega_b)
+    dvl = DvlData(t, *no_beams(len(t)), v_b=v_b * [1.0, -1.0, 1.0])
+    fit = dvl_y_negated_fit(judging_model(imu, dvl, m.config), imu, dvl, m.config)
+    assert fit.q_flu < -DVL_Y_MIN_Q and fit.ratio > 2 * DVL_Y_MIN_RATIO, fit
+    assert fit.refused

@@ -288,6 +288,8 @@ class DvlYFit:
             under :data:`DVL_Y_DOUBT_Q`: not fitted).
         q_flu: how much better than the DVL's y and z negated (FLU axes read as FRD), nan when not fitted.
         other: the other axis error ``q_other`` is of.
+        flu_ratio: the share of the velocity's changes left unexplained with its y negated over with its y and z
+            negated (nan when not fitted).
     """
 
     q_read: float
@@ -295,11 +297,17 @@ class DvlYFit:
     q_other: float = float("nan")
     q_flu: float = float("nan")
     other: str = ""
+    flu_ratio: float = float("nan")
+
+    def flu_better(self, q: float = DVL_Y_MIN_Q, ratio: float = DVL_Y_MIN_RATIO) -> bool:
+        """FLU fits better than the y alone negated by ``q`` noise variances and ``ratio``: by noise variances alone
+        a level vehicle's, whose z barely changes, piles up over a long log (34 over 1 h, 1.00x)."""
+        return self.q_flu <= -q and self.flu_ratio >= ratio
 
     @property
     def clear(self) -> bool:
         """The y negated fits clearly better than as read, and FLU not clearly better than it."""
-        return self.q_read >= DVL_Y_MIN_Q and self.ratio >= DVL_Y_MIN_RATIO and self.q_flu > -DVL_Y_MIN_Q
+        return self.q_read >= DVL_Y_MIN_Q and self.ratio >= DVL_Y_MIN_RATIO and not self.flu_better()
 
     @property
     def refused(self) -> bool:
@@ -343,7 +351,7 @@ def dvl_y_negated_fit(read, imu, dvl, config) -> DvlYFit:
     fits.update(_best_fits({0: read, **others}, (0.0,)))
     q = {k: _evidence(fits[k], fits["y"]) for k in others}
     other = min((k for k in q if k != "FLU"), key=q.get)
-    return DvlYFit(q_read, ratio, q[other], q["FLU"], other)
+    return DvlYFit(q_read, ratio, q[other], q["FLU"], other, fits["y"][0] / max(fits["FLU"][0], 1e-300))
 
 
 def check_dvl_y(imu, dvl, config, meta: dict, read, field: str, fixes: dict) -> str:
@@ -361,7 +369,7 @@ def check_dvl_y(imu, dvl, config, meta: dict, read, field: str, fixes: dict) -> 
                 f"negated): that fits {fit.q_read:.3g} noise variances better than as read and within "
                 f"{abs(fit.q_other):.0f} of {fit.other}; if so, {fixes['y']}")
     if not (min(fit.q_read, fit.q_other) >= DVL_Y_DOUBT_Q and fit.ratio >= DVL_Y_DOUBT_RATIO
-            and fit.q_flu > -DVL_Y_DOUBT_Q):
+            and not fit.flu_better(DVL_Y_DOUBT_Q, DVL_Y_DOUBT_RATIO)):
         return ""
     if fit.refused:
         raise DataError(fit.said(fixes), dvl.source, field=field)
