@@ -227,3 +227,34 @@ def test_a_long_level_log_whose_dvl_y_is_negated_is_not_left_to_the_flu_check_by
     fit = dvl_y_negated_fit(judging_model(imu, dvl, m.config), imu, dvl, m.config)
     assert fit.q_flu < -DVL_Y_MIN_Q and fit.ratio > 2 * DVL_Y_MIN_RATIO, fit
     assert fit.refused
+
+
+def test_a_dvl_y_negated_fit_that_explains_nothing_is_warned_about_not_refused(tmp_path):
+    """A simulated MEMS mission (seed 1, 300 s), its DVL 2 m forward and mounted turned 5 deg about z, neither in the
+    configuration: the IMU explains none of the velocity's changes either way round (-0.17 as read, -0.03 with its y
+    negated), and their ratio, noise, reached 1.28x (1.25x refuses): refused as a DVL y negated, advising to negate
+    correct data. Now kept, warned about and counted, the warning saying how little the y negated explains."""
+    import json
+
+    from graphnav.core.dvl_kinematics import dvl_velocity_b
+    from graphnav.missions import load_mission
+    from graphnav.sim.simulate import simulate_mission
+    m = simulate_mission(300.0, "mems", seed=1, dvl_stamp_offset_s=0.37, lever_arm_b=np.array([2.0, 0.0, 0.3]))
+    t, v = dvl_velocity_b(m.dvl, m.config)
+    a = np.radians(5.0)
+    v = v @ np.array([[np.cos(a), -np.sin(a), 0.0], [np.sin(a), np.cos(a), 0.0], [0.0, 0.0, 1.0]]).T
+    for name, header, columns in (("imu.csv", "t,ax,ay,az,gx,gy,gz", [m.imu.t, m.imu.f_b, m.imu.omega_b]),
+                                  ("dvl.csv", "t,vx,vy,vz", [t, v])):
+        np.savetxt(tmp_path / name, np.column_stack(columns), delimiter=",", header=header, comments="", fmt="%.12g")
+    cfg = m.config.to_dict()
+    cfg.pop("imu_axis_signs", None)
+    cfg["dvl"]["lever_arm_b"] = [0.0, 0.0, 0.0]
+    cfg["csv_columns"] = {"time_unit": "s",
+                          "imu": {"file": "imu.csv", "t": "t", "f_b": ["ax", "ay", "az"], "omega_b": ["gx", "gy", "gz"]},
+                          "dvl": {"file": "dvl.csv", "t": "t", "v_b": ["vx", "vy", "vz"], "clock": "imu"}}
+    (tmp_path / "config.json").write_text(json.dumps(cfg))
+    with pytest.warns(RuntimeWarning, match=r"the DVL velocity's y may be negated against the IMU \(kept as read\): "
+                                            r".* explaining -?0\.\d\d of them, 0.1 needed to refuse it"):
+        got = load_mission(tmp_path, tmp_path / "config.json")
+    assert got.meta["streams"]["dvl"]["doubted"]["DVL velocity y fitting the IMU better negated (or the IMU "
+                                                 "mirrored)"] == len(t)
