@@ -249,8 +249,8 @@ def test_a_dvl_y_negated_fit_that_explains_nothing_is_warned_about_not_refused(t
     cfg = m.config.to_dict()
     cfg.pop("imu_axis_signs", None)
     cfg["dvl"]["lever_arm_b"] = [0.0, 0.0, 0.0]
-    cfg["csv_columns"] = {"time_unit": "s",
-                          "imu": {"file": "imu.csv", "t": "t", "f_b": ["ax", "ay", "az"], "omega_b": ["gx", "gy", "gz"]},
+    cfg["csv_columns"] = {"time_unit": "s", "imu": {"file": "imu.csv", "t": "t", "f_b": ["ax", "ay", "az"],
+                                                    "omega_b": ["gx", "gy", "gz"]},
                           "dvl": {"file": "dvl.csv", "t": "t", "v_b": ["vx", "vy", "vz"], "clock": "imu"}}
     (tmp_path / "config.json").write_text(json.dumps(cfg))
     with pytest.warns(RuntimeWarning, match=r"the DVL velocity's y may be negated against the IMU \(kept as read\): "
