@@ -155,7 +155,7 @@ def flu_fit_ratio(read, imu, dvl, config, offsets=(0.0,)) -> tuple[float, float]
     """``(SSE as read / SSE with y, z negated, explained fraction negated)`` of the clock model ``read`` (the DVL
     as read, :func:`~graphnav.core.dvl_kinematics.dvl_window_model`) at the DVL offset ``offsets`` (s), or, given
     several, each reading at its own best of them over the same windows (:func:`_best_fits`)."""
-    flipped, _ = dvl_window_model(imu, dvl, config, transform=np.diag([1.0, -1.0, -1.0]), ints=read.imu)
+    flipped, _ = dvl_window_model(imu, dvl, config, transform=DVL_FLU, ints=read.imu)
     offsets = np.atleast_1d(np.asarray(offsets, float))
     if len(offsets) > 1:
         fits = _best_fits({0: read, "flu": flipped}, offsets)
