@@ -733,6 +733,26 @@ def test_a_short_akit_piece_moved_off_its_clock_puts_its_pings_where_its_gt_does
     assert len(got.dvl.t) == len(truth.dvl.t)
     np.testing.assert_allclose(got.dvl.t, truth.dvl.t, atol=0.1)
 
+
+@pytest.mark.parametrize("first, shift", [(3, 86400.0), (23, 86403.0)])
+def test_a_short_akit_piece_a_day_off_with_an_outage_is_placed_with_the_pings_after_it(akit_dir, tmp_path, first, shift):
+    """Trajectory1's 60 s from 120 s without GT, 6 DVL rows dropped after the 3rd or the 23rd (a 7 s step), its stamps
+    a day (and 3 s) off: the clock windows after the outage started 7 pings later, and the 11 pings past the last whole
+    one, where the vehicle's velocity changed most, were left out. The IMU explained 0.18 and 0.08 of the rest at the
+    right offset, under the 0.2 a clear peak asks for, and the piece was refused. With them in a window of their own it
+    is placed where the same piece with its GT puts its pings."""
+    from test_dvl_frame import _akit_crop_without_gt
+    with_gt = _akit_crop_without_gt(akit_dir / "Trajectory1", tmp_path / "gt", np.eye(3), 60.0, 120.0, gt=True)
+    moved = _akit_crop_without_gt(akit_dir / "Trajectory1", tmp_path / "moved", np.eye(3), 60.0, 120.0,
+                                  dvl_shift=shift, dvl_outage=(first, 6))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        truth = load_mission(with_gt)
+        got = load_mission(moved)
+    kept = np.delete(truth.dvl.t, np.arange(first, first + 6))
+    assert len(got.dvl.t) == len(kept)
+    np.testing.assert_allclose(got.dvl.t, kept, atol=0.1)
+
 def test_a_dvl_a_day_off_with_runs_of_pings_missing_finds_its_clock():
     """A 600 s log whose DVL lost 45 % of its pings in runs of 5 (6 s steps, some runs meeting), a day off: windows
     spanning the steps left the IMU explaining 0.02 of the velocity changes at best and no offset was found (the load
