@@ -716,12 +716,12 @@ def test_a_short_akit_piece_moved_off_its_clock_puts_its_pings_where_its_gt_does
     """Trajectory10's 60 s from 330 s without GT, its DVL stamps moved a day or 40 s: its pings land where the same
     piece with its GT puts them, 0.015 s off at both. Measured on the ten trajectories, 60 s pieces from 0, 60, 120, 240
     and 330 s (with and without 6 pings dropped mid-piece) and 300 s ones from 0 and 60 s, a day, 40 s and 300 s late:
-    357 of 360 loaded (Trajectory1 from 120 s with the dropped pings is refused: 0.18 explained), their pings within
-    0.13 s of where the whole trajectory's GT puts them, the same to 0.03 s at every shift. Their ``dvl_time_offset_s``
-    is not the GT-based offset less the shift: a file days away (or further after the IMU than the longest file lasts)
-    is rescaled about its own first stamp (the reader's step 1), here 330.8 s into the published grid, so its offset
-    is 0.0025 x 330.8 = 0.83 s under the published file's; 40 s late it is rescaled about 0 with the shift, 0.1 s over.
-    Read as a placement, that offset was taken for the search placing such pieces 0.3-0.9 s early."""
+    357 of 360 loaded (Trajectory1 from 120 s with the dropped pings was refused, 0.18 explained: its windows after the
+    outage left its last 11 pings out), their pings within 0.13 s of where the whole trajectory's GT puts them, the
+    same to 0.03 s at every shift. A file days away (or further after the IMU than the longest file lasts) is rescaled
+    about its own first stamp (the reader's step 1), here 330.8 s into the published grid: its ``dvl_time_offset_s`` is
+    recorded for its stamps as written, the GT-based offset less the shift (it was 0.0025 x 330.8 = 0.83 s under it);
+    40 s late it is rescaled about 0 with the shift, and its offset is 0.1 s over."""
     from test_dvl_frame import _akit_crop_without_gt
     with_gt = _akit_crop_without_gt(akit_dir / "Trajectory10", tmp_path / "gt", np.eye(3), 60.0, 330.0, gt=True)
     moved = _akit_crop_without_gt(akit_dir / "Trajectory10", tmp_path / "moved", np.eye(3), 60.0, 330.0,

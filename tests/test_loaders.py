@@ -702,6 +702,35 @@ def test_a_late_file_shares_the_folders_origin_and_a_far_one_keeps_its_own(tmp_p
     np.testing.assert_array_equal(c.imu[:, 0], a.imu[:, 0])
 
 
+
+@pytest.mark.parametrize("start", [330.0, 120.0])
+def test_a_given_dvl_offset_for_a_piece_a_day_off_lands_where_it_says(akit_dir, tmp_path, start):
+    """Trajectory10's 60 s from 120 or 330 s without GT, its DVL stamps a day late, given the offset the same piece with
+    its GT finds less the day: a file on a clock of its own is rescaled about its own first stamp, and the offset added
+    after that put the pings 0.0025 x 120 = 0.30 s and 0.83 s later than it said. It is for the stamps as written: they
+    land within 0.01 s of the GT piece's (the rescale of the offset itself, 0.0025 s). The offset the clock search
+    records is on the same footing: given back, it lands where the search put the DVL."""
+    import json
+
+    from graphnav.missions import load_mission
+    from test_dvl_frame import _akit_crop_without_gt
+    with_gt = _akit_crop_without_gt(akit_dir / "Trajectory10", tmp_path / "gt", np.eye(3), 60.0, start, gt=True)
+    moved = _akit_crop_without_gt(akit_dir / "Trajectory10", tmp_path / "moved", np.eye(3), 60.0, start,
+                                  dvl_shift=86400.0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        truth = load_mission(with_gt)
+        given = truth.config.dvl_time_offset_s - 86400.0
+        (tmp_path / "config.json").write_text(json.dumps({"dvl_time_offset_s": given}))
+        got = load_mission(moved, tmp_path / "config.json")
+        searched = load_mission(moved)
+        searched_given = load_akit(moved, dvl_time_offset_s=searched.config.dvl_time_offset_s)
+    assert got.config.dvl_time_offset_s == given
+    np.testing.assert_allclose(got.dvl.t, truth.dvl.t, rtol=0, atol=0.01)
+    np.testing.assert_allclose(searched_given.dvl.t, searched.dvl.t, rtol=0, atol=1e-6)
+    assert searched.config.dvl_time_offset_s == pytest.approx(given, abs=0.1)
+
+
 def test_a_folder_trimmed_at_the_start_keeps_the_whole_folders_stamps(tmp_path):
     """All three files cut to t >= 30 s (a published folder trimmed at the start): every stamp is the whole
     folder's, so the DVL keeps its offset to the IMU. The published grids start at 0 whatever is cut from them;

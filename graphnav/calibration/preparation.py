@@ -273,6 +273,7 @@ def _pick(value, facts: dict, key: str):
 def _prepare_akit(mission: Mission, meta: dict, facts: dict, imu_axis_signs, gt_time_offset_s,
                   dvl_time_offset_s) -> Mission:
     from graphnav.calibration.reference import Reference, estimate_dvl_time_offset, estimate_gt_time_offset
+    from graphnav.io.loaders import offset_on_rescaled_stamps, offset_on_written_stamps
     from_file = {key for key, value in (("imu_axis_signs", imu_axis_signs), ("gt_time_offset_s", gt_time_offset_s),
                                         ("dvl_time_offset_s", dvl_time_offset_s))
                  if _is_auto(value) and key in facts.get("given", {})}
@@ -295,6 +296,9 @@ def _prepare_akit(mission: Mission, meta: dict, facts: dict, imu_axis_signs, gt_
     gt_time_offset_s = _off_the_imu_clock(mission.gt, gt_time_offset_s, mission.imu, "gt", meta)
     dvl_time_offset_s = _off_the_imu_clock(mission.dvl, _pick(dvl_time_offset_s, facts, "dvl_time_offset_s"),
                                            mission.imu, "dvl", meta)
+    if not _is_auto(dvl_time_offset_s):
+        # given for the stamps as written: where the DVL is rescaled about its own first stamp, that is another offset
+        dvl_time_offset_s = offset_on_rescaled_stamps(meta, "dvl", float(dvl_time_offset_s))
     if mission.gt is not None and _is_auto(gt_time_offset_s) and not gt_clock:
         # a GT on a clock of its own first gets its clock offset: the axis check and the fine estimate need it
         # on the IMU's (they search +-2 s)
@@ -370,7 +374,8 @@ def _prepare_akit(mission: Mission, meta: dict, facts: dict, imu_axis_signs, gt_
                                                span)
         if not auto and "dvl_time_offset_s" in from_file:      # est: what the data add to the given offset
             against = "as given" if used_as_given is None else "where the data put it"
-            _judge_given_offset(meta, facts, "dvl", coarse, coarse + est.offset_s, est.sigma_s, mission,
+            _judge_given_offset(meta, facts, "dvl", offset_on_written_stamps(meta, "dvl", coarse),
+                                offset_on_written_stamps(meta, "dvl", coarse + est.offset_s), est.sigma_s, mission,
                                 f", against the GT {against}")
     if auto:
         est = dataclasses.replace(est, offset_s=est.offset_s + coarse)
@@ -379,7 +384,7 @@ def _prepare_akit(mission: Mission, meta: dict, facts: dict, imu_axis_signs, gt_
     if gt_clock and "gt" in estimates:
         estimates["gt"] = dataclasses.replace(estimates["gt"], offset_s=estimates["gt"].offset_s + gt_clock)
     cfg.gt_time_offset_s = gt_clock + float(gt_time_offset_s)
-    cfg.dvl_time_offset_s = float(dvl_time_offset_s)
+    cfg.dvl_time_offset_s = offset_on_written_stamps(meta, "dvl", float(dvl_time_offset_s))
 
     t_gt = t_depth = g.t + float(gt_time_offset_s)          # g is on the IMU clock already (gt_clock added)
     if used_as_given is not None:
@@ -393,7 +398,7 @@ def _prepare_akit(mission: Mission, meta: dict, facts: dict, imu_axis_signs, gt_
         gt = move_ground_truth(gt, t_imu, omega_b, imu_position_b, lat_for_rate)
     # the point's move changes no stamp and its position term none either: the depth is the moved GT's down
     depth = DepthData(t_depth, gt.p_n[:, 2].copy(), source=mission.depth.source)
-    dvl = dataclasses.replace(mission.dvl, t=t_dvl + cfg.dvl_time_offset_s)
+    dvl = dataclasses.replace(mission.dvl, t=t_dvl + float(dvl_time_offset_s))
     meta["gt_point_b"] = imu_position_b.tolist()
     meta["time_offsets"] = {k: {"offset_s": e.offset_s, "sigma_s": e.sigma_s, "rms": e.rms}
                             for k, e in estimates.items()}
@@ -508,14 +513,16 @@ def _prepare_akit_without_gt(mission: Mission, meta: dict, facts: dict, cfg: Sen
     :data:`~graphnav.io.loaders.AKIT_DVL_TIME_OFFSET_S` unless the DVL clock fit puts the DVL clearly off it
     (:func:`_akit_dvl_offset_without_gt`; the fine estimate needs the missing GT). A given offset a configuration file
     set (``judge``) is judged against the DVL clock fit, as a log's is (:func:`_judge_given_dvl_clock`)."""
+    from graphnav.io.loaders import offset_on_written_stamps
     auto = _is_auto(dvl_time_offset_s)
     if auto and coarse:
         dvl_time_offset_s = coarse        # the clock estimate is all there is without GT (no fine reference)
     if _is_auto(dvl_time_offset_s):
         dvl_time_offset_s = _akit_dvl_offset_without_gt(mission.dvl, imu, cfg, meta)
-    cfg.dvl_time_offset_s = float(dvl_time_offset_s)
+    # recorded for the stamps as written, as a given one is meant (the stamps are moved by it as rescaled)
+    cfg.dvl_time_offset_s = offset_on_written_stamps(meta, "dvl", float(dvl_time_offset_s))
     cfg.gt_time_offset_s = 0.0
-    dvl = dataclasses.replace(mission.dvl, t=mission.dvl.t + cfg.dvl_time_offset_s)
+    dvl = dataclasses.replace(mission.dvl, t=mission.dvl.t + float(dvl_time_offset_s))
     if judge:
         _judge_given_dvl_clock(dataclasses.replace(mission, imu=imu, config=cfg), dvl, dvl, meta, facts,
                                cfg.dvl_time_offset_s)

@@ -45,11 +45,14 @@ and 3 and the move of the GT to the IMU point, is the prepare step's (the read m
    ``omega x l`` (lever arm held at ``lever_arm_b``). Estimating from the data rather than shipping a
    table works for any A-KIT folder, including the three not in ``../shared/data``. A GT or DVL file on a clock
    of its own (seconds or days away) is first put on the IMU clock from the data
-   (:mod:`graphnav.calibration.clock`). That offset is for the stamps as rescaled, about the origin step 1 took: a
-   file starting later than the longest file lasts (a day away), rescaled about its own first stamp, cut ``t0`` s
-   into a published grid, records 0.0025 ``t0`` s less than the published file's offset less the clock's shift
-   (0.83 s for a piece from 330 s); a file a few seconds late, rescaled about 0 with its shift, 0.0025 of the shift
-   more. Either way its samples land where the published file's do.
+   (:mod:`graphnav.calibration.clock`). A file sharing the folder's clock has its offsets, found or given, added to
+   its stamps as rescaled about the folder's origin (step 1): one a few seconds late, rescaled about 0 with its
+   shift, records 0.0025 of the shift more than the published file's offset less the shift. A file starting later
+   than the longest file lasts (a day away) is rescaled about its own first stamp, and its offset, found or given, is
+   for its stamps as written (:func:`offset_on_rescaled_stamps`): the published file's offset less the clock's shift,
+   given, lands where the published file's samples do (to 0.0025 of the offset: 2.5 ms), and is what the clock search
+   records. (Added after its own rescale, a given offset landed 0.0025 ``t0`` s late for a piece cut ``t0`` s into a
+   published grid: 0.83 s from 330 s.) Either way the searched samples land where the published file's do.
 4. **GT.** lat/lon/alt -> NED with the project's one position convention
    (:data:`graphnav.core.mission.NED_ORIGIN_CONVENTION`): the origin is the sea surface above the first GT
    sample, ``origin_lla = (lat0, lon0, 0)``, so north/east start at 0 and ``p_n[:, 2]`` is the absolute depth
@@ -660,9 +663,47 @@ def akit_stamp_origins(first: dict[str, float], last: dict[str, float]) -> dict[
     if not first:
         return {}
     folder = min(first.values())
-    common = folder if abs(folder) > AKIT_FAR_CLOCK_S else 0.0
+    common = akit_folder_origin(first)
     longest = max(last[k] - first[k] for k in first)
     return {k: common if t0 - folder <= longest else t0 for k, t0 in first.items()}
+
+
+def akit_folder_origin(first: dict[str, float]) -> float:
+    """The stamp (s) the files sharing an A-KIT folder's clock are rescaled about (:func:`akit_stamp_origins`), from
+    each file's first stamp (s): 0, or the folder's earliest first stamp on a clock more than
+    :data:`AKIT_FAR_CLOCK_S` from zero."""
+    folder = min(first.values())
+    return folder if abs(folder) > AKIT_FAR_CLOCK_S else 0.0
+
+
+#: ``meta`` key of the files rescaled about their own first stamp (on a clock of their own), by stream:
+#: ``{"origin": s, "factor": the rescale, "folder_origin": s}``, which a time offset on their stamps as written needs
+#: (:func:`offset_on_rescaled_stamps`, :func:`offset_on_written_stamps`).
+OWN_CLOCK_RESCALE = "own_clock_rescale"
+
+
+def offset_on_rescaled_stamps(meta: dict, stream: str, offset_s: float) -> float:
+    """The offset (s) to add to the rescaled stamps of ``stream`` that puts them where ``offset_s``, added to its
+    stamps as written, does: the stamps plus the offset rescaled as the folder's files are, about its origin
+    (:data:`OWN_CLOCK_RESCALE`). A file on a clock of its own is rescaled about its own first stamp ``T0``; an offset
+    added after that would land ``(1 - factor) (T0 + offset - origin)`` s late (0.0025 ``t0`` s for a piece cut ``t0``
+    s into a published grid a day away). ``offset_s`` itself for a file rescaled about the folder's origin or not
+    at all."""
+    own = meta.get(OWN_CLOCK_RESCALE, {}).get(stream)
+    if own is None:
+        return offset_s
+    factor = own["factor"]
+    return offset_s * factor + (1.0 - factor) * (own["folder_origin"] - own["origin"])
+
+
+def offset_on_written_stamps(meta: dict, stream: str, offset_s: float) -> float:
+    """The inverse of :func:`offset_on_rescaled_stamps`: the offset (s) on the stamps of ``stream`` as written that
+    puts them where ``offset_s`` added to its rescaled stamps does."""
+    own = meta.get(OWN_CLOCK_RESCALE, {}).get(stream)
+    if own is None:
+        return offset_s
+    factor = own["factor"]
+    return (offset_s - (1.0 - factor) * (own["folder_origin"] - own["origin"])) / factor
 
 
 def _rescale_akit_stamps(arrays: dict, files: dict, meta: dict) -> None:
@@ -675,8 +716,8 @@ def _rescale_akit_stamps(arrays: dict, files: dict, meta: dict) -> None:
     published grid is left as read, and noted; a folder with files of both kinds is warned about (their clocks may
     now disagree)."""
     present = {k: a for k, a in arrays.items() if a is not None and len(a) >= 2}
-    origins = akit_stamp_origins({k: float(a[0, 0]) for k, a in present.items()},
-                                 {k: float(a[-1, 0]) for k, a in present.items()})
+    first = {k: float(a[0, 0]) for k, a in present.items()}
+    origins = akit_stamp_origins(first, {k: float(a[-1, 0]) for k, a in present.items()})
     kept, rescaled = [], []
     for k, a in present.items():
         step = grid_step(a[:, 0])
@@ -696,6 +737,9 @@ def _rescale_akit_stamps(arrays: dict, files: dict, meta: dict) -> None:
             add_note(meta, k, text)
             warnings.warn(f"{files[k.upper()]}: {text}", RuntimeWarning, stacklevel=4)
         a[:, 0] = _scaled_about(a[:, 0], origins[k], factor)
+        if origins[k] != akit_folder_origin(first):
+            meta.setdefault(OWN_CLOCK_RESCALE, {})[k] = {"origin": origins[k], "factor": factor,
+                                                         "folder_origin": akit_folder_origin(first)}
         about = f" about t = {origins[k]:.3f} s" if origins[k] else ""
         add_note(meta, k, f"stamps rescaled by {factor:.8g}{about}: the published linspace(0, T, N) step "
                           f"{step:.8g} s back on the sensor's {1.0 / AKIT_NOMINAL_RATE_HZ[k]:g} s period")
