@@ -735,7 +735,8 @@ def test_a_short_akit_piece_moved_off_its_clock_puts_its_pings_where_its_gt_does
 
 
 @pytest.mark.parametrize("first, shift", [(3, 86400.0), (23, 86403.0)])
-def test_a_short_akit_piece_a_day_off_with_an_outage_is_placed_with_the_pings_after_it(akit_dir, tmp_path, first, shift):
+def test_a_short_akit_piece_a_day_off_with_an_outage_is_placed_with_the_pings_after_it(akit_dir, tmp_path, first,
+                                                                                       shift):
     """Trajectory1's 60 s from 120 s without GT, 6 DVL rows dropped after the 3rd or the 23rd (a 7 s step), its stamps
     a day (and 3 s) off: the clock windows after the outage started 7 pings later, and the 11 pings past the last whole
     one, where the vehicle's velocity changed most, were left out. The IMU explained 0.18 and 0.08 of the rest at the
