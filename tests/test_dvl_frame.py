@@ -362,6 +362,47 @@ def test_an_rov_moving_sideways_in_waves_half_a_swing_off_its_own_clock_is_not_t
         _load(_folder(tmp_path, leg, v_b * [1.0, -1.0, -1.0], {"clock": "auto"}, shift=15.0))
 
 
+@pytest.mark.parametrize("heading_deg, seed", [(175.0, 1), (-172.0, 0)])
+def test_body_columns_declared_ned_heading_south_in_waves_are_refused_by_their_stamps_and_a_backing_rov_kept(
+        sim, tmp_path, heading_deg, seed):
+    """Body-frame columns declared ``frame: ned`` on a vehicle at 1 m/s heading 175 or -172 deg, its speed swinging
+    0.3 m/s every 20 s (waves), ``clock: auto``, its DVL on time: a fit half a period off is as good turned 180 deg,
+    so the turns are taken up to a half turn, and there the two readings, turned from each other by about 180 deg,
+    both meet the IMU's (+3.6 and 0.0 deg): kept as declared with a warning, the velocity negated (2.04 m/s off). At
+    the stamps as they stand, which fit as well (r^2 0.992-0.995), turned to body they are turned by minus the heading
+    and as read meet the IMU's: refused naming csv_columns.dvl.frame and 'body'. The true NED velocity of an ROV
+    backing at 1 m/s on the same leg, which points the same way, was warned about as such columns: kept with the
+    crabbing note, exactly."""
+    m, _, _ = sim
+    legs = {}
+    for speed in (1.0, -1.0):
+        t_imu, f_b, omega_b, t, v_b, v_n, euler = _slow_in_current(seed, speed, 0.0, ned=True, with_attitude=True,
+                                                                   turn_deg_s=0.05, heading_deg=heading_deg,
+                                                                   surge=0.3, surge_period_s=20.0)
+        legs[speed] = ((dataclasses.replace(m, imu=dataclasses.replace(m.imu, t=t_imu, f_b=f_b, omega_b=omega_b)), t,
+                        None), v_b, v_n, {"roll": euler[:, 0], "pitch": euler[:, 1], "yaw": euler[:, 2]})
+    leg, v_b, _, cols = legs[1.0]
+    entry = {"frame": "ned", "euler": list(cols), "angle_unit": "deg", "clock": "auto"}
+    with pytest.raises(DataError, match=r"dvl\.csv, field 'vx, vy, vz': .*points off forward: .*at the DVL stamps as "
+                                        r"they stand, which fit as well \(r\^2 0\.9\d\d, the best 0\.9\d\d\), turned "
+                                        r"to body [+-]\d+\.\d \+- \d+\.\d deg, as read [+-]\d+\.\d .*not the ned "
+                                        r"frame: declare csv_columns\.dvl\.frame 'body'") as err:
+        _load(_folder(tmp_path, leg, v_b, entry, cols))
+    turned, sigma, as_read = (float(x) for x in re.search(r"stamps as they stand, .* turned to body ([+-]\d+\.\d) \+- "
+                                                          r"(\d+\.\d) deg, as read ([+-]\d+\.\d)",
+                                                          str(err.value)).groups())
+    assert abs((turned + heading_deg + 180.0) % 360.0 - 180.0) < 5.0 and sigma < 2.0 and abs(as_read) < 2.0
+    leg, v_b, v_n, cols = legs[-1.0]
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        got = _load(_folder(tmp_path, leg, v_n, entry, cols))
+    assert not [str(w.message) for w in caught if "points off forward" in str(w.message)]
+    assert dvl_frame.DECLARED_EARTH_DOUBT not in got.meta["streams"]["dvl"].get("doubted", {})
+    assert any(re.search(r"point off forward turned to body .*at the DVL stamps as they stand.* kept in the ned frame, "
+                         r"a vehicle crabbing or moving sideways", n) for n in got.meta["streams"]["dvl"]["notes"])
+    np.testing.assert_allclose(got.dvl.v_b, v_b, atol=1e-8)
+
+
 @pytest.mark.parametrize("heading_deg, later_refusal", [(137.0, "imu.csv"), (-117.0, "imu.csv"),
                                                         (53.0, "FLU axes"), (-40.0, ""), (45.0, "")])
 def test_body_columns_declared_ned_on_a_straight_leg_at_a_held_speed_are_warned_by_where_they_point(

@@ -436,10 +436,16 @@ def fits_turned_elsewhere(fits: list, best: int) -> bool:
     (straight legs at 1 m/s surging 0.1-0.5 m/s every 8-20 s: r^2 within 0.01 of the best there), so the best offset,
     which noise picks, fixes neither the clock nor the sign of the velocity's changes."""
     yaws = np.array([f[2] for f in fits])
-    r2 = np.array([np.nan_to_num(f[1], nan=-1.0) for f in fits])
+    r2 = np.array([f[1] for f in fits])
     turned = np.abs(np.angle(np.exp(1j * (yaws - yaws[best])))) > np.pi / 2      # NaN yaw: False
-    alike = (r2 >= MIN_SCALE_R2) | (1.0 - r2 <= TURNED_FIT_RATIO * (1.0 - r2[best]))
-    return bool(np.any(turned & alike))
+    return bool(np.any(turned & fits_as_well(r2, r2[best])))
+
+
+def fits_as_well(r2, best_r2: float):
+    """Whether scale fits of r^2 ``r2`` (:func:`speed_scale`'s; NaN: none) explain the velocity's changes as well as
+    the best, of ``best_r2``: :data:`MIN_SCALE_R2`, or within :data:`TURNED_FIT_RATIO` of its unexplained share."""
+    r2 = np.nan_to_num(np.asarray(r2, float), nan=-1.0)
+    return (r2 >= MIN_SCALE_R2) | (1.0 - r2 <= TURNED_FIT_RATIO * (1.0 - best_r2))
 
 
 def within_half_turn(yaw: float) -> float:

@@ -901,7 +901,9 @@ def check_declared_earth_course(v: np.ndarray, v_b: np.ndarray, heading: np.ndar
     :data:`DECLARED_EARTH_TURN_SIGMAS` sigmas, while the columns as read meet the IMU's within as much
     (:func:`turn_against_imu`): refused naming ``csv_columns.dvl.frame`` and 'body'; the other way round (a true
     earth-frame velocity of a vehicle in a strong cross-current, or of an ROV moving sideways or backward, which points
-    so on a straight leg too) kept with a note. Where the IMU does not tell (a vehicle holding its speed, DVL stamps
+    so on a straight leg too) kept with a note. A speed swinging with a period leaves the turns' sign to the DVL clock
+    (:func:`_changes_against_imu`): with ``clock: auto``, the stamps as they stand fix it where the turns up to a half
+    turn do not. Where the IMU does not tell (a vehicle holding its speed, DVL stamps
     off the IMU span) warned about and counted (:data:`DECLARED_EARTH_DOUBT`), naming the key and 'body'
     and the current a true earth frame would need. A log already kept as declared against the frame checks is not
     warned about again."""
@@ -942,7 +944,9 @@ def _changes_against_imu(v: np.ndarray, v_b: np.ndarray, imu: tuple | None) -> t
     other way round; each only where that reading is nearer the IMU's than the other by :data:`DECLARED_EARTH_TURN_RAD`
     too (the readings are turned from each other by about the mean heading column: a heading column or mounting
     further off than the allowance, on a heading within it, turns them as a frame would); None where the IMU does not
-    tell (a vehicle holding its speed, DVL stamps off the IMU span, readings that close)."""
+    tell (a vehicle holding its speed, DVL stamps off the IMU span, readings that close). Where the turns, known only
+    up to a half turn, tell nothing (body columns declared NED on a vehicle heading within about 20 deg of south, ENU
+    of west), the stamps as they stand tell, where they fit as well as the best offset (:func:`_changes_at_stamps`)."""
     from graphnav.core.dvl_kinematics import MIN_SCALE_R2, SCALE_OFFSETS_S, within_half_turn
     if imu is None:
         return None, "the IMU did not judge it (the DVL stamps, with dvl_time_offset_s, off the IMU span)"
@@ -969,14 +973,48 @@ def _changes_against_imu(v: np.ndarray, v_b: np.ndarray, imu: tuple | None) -> t
              f"{np.degrees(sigma_r):.1f} deg (a velocity in its right frame: within {np.degrees(floor):g} deg and "
              f"{k:g} sigmas){'' if known else f'; at the DVL offset {offset:+.1f} s, where they fit best'}"
              f"{_SIGN_FREE if sign_free else ''}")
+    verdict = _frame_by_turns(yaw_b, sigma_b, yaw_r, sigma_r)
+    if verdict is None and sign_free:
+        verdict, at_stamps = _changes_at_stamps(v, v_b, imu, r2)
+        found += at_stamps
+    return verdict, (found if verdict else f"the IMU does not tell them apart: {found}")
+
+
+def _frame_by_turns(yaw_b: float, sigma_b: float, yaw_r: float, sigma_r: float) -> str | None:
+    """The verdict of :func:`_changes_against_imu` from the turns about z (rad) of the changes of the two readings,
+    turned to body (``yaw_b``) and as read (``yaw_r``), and their sigmas (rad)."""
+    floor, k = DECLARED_EARTH_TURN_RAD, DECLARED_EARTH_TURN_SIGMAS
     body_off, read_off = abs(yaw_b) - floor > k * sigma_b, abs(yaw_r) - floor > k * sigma_r
     # the two readings are turned from each other by about the mean heading column; where one is not nearer the IMU's
     # by the allowance too, a heading column or mounting that far off (a true NED copy heading 10 deg, its heading
     # column 13 deg off: -13.1 and +9.9 deg) reads as a frame's turn
     apart = abs(abs(yaw_b) - abs(yaw_r)) > floor
-    if body_off != read_off and apart:
-        return ("body" if body_off else "earth"), found
-    return None, f"the IMU does not tell them apart: {found}"
+    return ("body" if body_off else "earth") if body_off != read_off and apart else None
+
+
+def _changes_at_stamps(v: np.ndarray, v_b: np.ndarray, imu: tuple, best_r2: float) -> tuple[str | None, str]:
+    """``(verdict, text)`` of :func:`_frame_by_turns` at the DVL stamps as they stand (arguments as
+    :func:`check_declared_earth_course`'s), where the fit there explains the velocity's changes as well as at the best
+    offset, of r^2 ``best_r2`` (:func:`~graphnav.core.dvl_kinematics.fits_as_well`), the turns taken whole; else
+    ``(None, "")``. Half a period off, a speed swinging with a period fits turned 180 deg as well as on time, and taken
+    up to a half turn, two readings turned about 180 deg from each other (body columns declared NED on a vehicle
+    heading within about 20 deg of south) both meet the IMU's: such columns heading 175 deg were kept so, their
+    velocity negated. Which of the two, on time or half a period off, is the DVL's clock only the stamps say (the
+    clock search judges them later): a DVL on time, as a log gives it unless told otherwise."""
+    from graphnav.core.dvl_kinematics import fits_as_well
+    t_dvl, t_imu, f_b, omega_b, _ = imu
+    yaw_b, sigma_b, _, r2, _ = turn_against_imu(t_dvl, v_b, t_imu, f_b, omega_b, 0.0)
+    if not (np.isfinite(yaw_b) and fits_as_well(r2, best_r2)):
+        return None, ""
+    yaw_r, sigma_r, *_ = turn_against_imu(t_dvl, v, t_imu, f_b, omega_b, 0.0)
+    verdict = _frame_by_turns(yaw_b, sigma_b, yaw_r, sigma_r)
+    if verdict is None:
+        return None, ""
+    return verdict, (f"; at the DVL stamps as they stand, which fit as well (r^2 {r2:.3f}, the best {best_r2:.3f}), "
+                     f"turned to body {np.degrees(yaw_b):+.1f} +- {np.degrees(sigma_b):.1f} deg, as read "
+                     f"{np.degrees(yaw_r):+.1f} +- {np.degrees(sigma_r):.1f} deg: the stamps fix the half turn (a true "
+                     "earth-frame velocity of a vehicle moving the other way, its DVL stamps half a swing of its speed "
+                     "off, reads so too: declare its DVL clock 'imu' then, with dvl_time_offset_s)")
 
 
 #: What the turns of :func:`_changes_against_imu` say where the fits cannot fix their sign.
