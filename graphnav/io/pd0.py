@@ -155,18 +155,20 @@ def _beam_matrix(raw: bytes, start: int) -> np.ndarray | None:
 def scan_pd0(path: str | Path) -> Pd0Scan:
     """Count the complete, checksummed ensembles of a PD0 file and read its stored beam matrix."""
     raw = Path(path).read_bytes()
-    spans, bad, bad_end, first, repeated = [], 0, 0, None, 0
+    spans, bad, bad_end, first, repeated, end = [], 0, 0, None, 0, 0
     for start, length, ok in _ensembles(raw):
         first = start if first is None else first
-        if ok and spans and raw[start:start + length + 2] == raw[slice(*spans[-1])]:
+        if ok:
+            end = start + length + 2
+        if ok and spans and raw[start:end] == raw[slice(*spans[-1])]:
             repeated += 1
         elif ok:
-            spans.append((start, start + length + 2))
+            spans.append((start, end))
         elif start >= bad_end:         # a 0x7F7F inside a corrupt ensemble is not another ensemble
             bad += 1
             bad_end = start + length + 2
-    cut_offset, cut_bytes, cut_length = _cut_ensemble(raw, max(spans[-1][1] if spans else 0, bad_end))
-    return Pd0Scan(len(spans), bad, len(raw) - spans[-1][1] if spans else len(raw),
+    cut_offset, cut_bytes, cut_length = _cut_ensemble(raw, max(end, bad_end))
+    return Pd0Scan(len(spans), bad, len(raw) - end if spans else len(raw),
                    _beam_matrix(raw, spans[0][0]) if spans else None, spans, cut_bytes, cut_length, cut_offset,
                    first or 0, repeated)
 
