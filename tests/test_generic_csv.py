@@ -597,6 +597,35 @@ def test_semicolon_tab_and_comment_lines_read_as_the_comma_file(sim, tmp_path):
         load_mission(tmp_path, cfg, prepare=False)
 
 
+def test_a_row_with_more_cells_than_the_header_is_refused_naming_its_line(sim, tmp_path):
+    """A decimal comma in a comma-separated file splits a number into two cells, and the cells after it were read
+    under the next columns' names (before: a gyro z read as its integer part with no word; a DVL file written so
+    throughout was refused for a median speed of 1e13 m/s in its declared unit). Refused naming the file, the first
+    line and how many; a trailing separator (an empty last cell) still reads as the clean file."""
+    cmap = _separate_files(tmp_path, sim)
+    cfg = _config(tmp_path, sim, cmap)
+    clean = load_mission(tmp_path, cfg, prepare=False)
+    imu, dvl = tmp_path / "imu.csv", tmp_path / "dvl.csv"
+    text = imu.read_text()
+    imu.write_text("\n".join(line + "," for line in text.splitlines()) + "\n")
+    m = load_mission(tmp_path, cfg, prepare=False)
+    np.testing.assert_array_equal(m.imu.omega_b, clean.imu.omega_b)
+    lines = text.splitlines()
+    cells = lines[1000].split(",")
+    lines[1000] = ",".join(cells[:-1] + [cells[-1].replace(".", ",", 1)])      # line 1001: the gyro z
+    imu.write_text("\n".join(lines) + "\n")
+    with pytest.raises(DataError, match=r"8 cells where the header \(line 1\) names 7: .*1 such line\(s\): 1001\. "
+                                        r"Likely a decimal comma in a ','-separated file") as err:
+        load_mission(tmp_path, cfg, prepare=False)
+    assert err.value.source == str(imu) and err.value.line == 1001
+    imu.write_text(text)
+    rows = dvl.read_text().splitlines()
+    dvl.write_text("\n".join(rows[:1] + [",".join(c.replace(".", ",") for c in row.split(",")) for row in rows[1:]])
+                   + "\n")
+    with pytest.raises(DataError, match=rf"line 2, .*{len(rows) - 1} such line\(s\): 2, 3, 4, "):
+        load_mission(tmp_path, cfg, prepare=False)
+
+
 def test_a_bad_depth_cell_refuses_its_row_and_dvl_warnings_name_lines(sim, tmp_path):
     """An empty, NaN or infinite depth cell refuses its row (warned with the line, counted) as for the other
     streams; it used to stop the load. A beam that is not a measurement is warned about at its file line (it

@@ -240,6 +240,21 @@ def test_a_nan_dvl_row_is_warned_about_at_its_file_line(tmp_path):
         read_mission(folder)
 
 
+def test_an_akit_dvl_file_without_one_usable_ping_is_refused_naming_the_file_and_column(tmp_path):
+    """A DVL that never had bottom lock (every row NaN or empty) is refused naming the file, the column and the
+    count, as a column-map log's is (before: ZeroDivisionError in the DVL time-offset fit against the GT)."""
+    from graphnav.missions import load_mission
+    folder = make_akit_folder(tmp_path, n=2)
+    p = folder / "DVL_trajectory2.csv"
+    lines = p.read_text().splitlines()
+    p.write_text("\n".join([lines[0]] + [line.split(",")[0] + (",nan,nan,nan" if k % 2 else ",,,")
+                                          for k, line in enumerate(lines[1:])]) + "\n")
+    with pytest.warns(RuntimeWarning), pytest.raises(DataError, match=r"no usable DVL ping: all 120 refused "
+                                                                      r"\(120 no valid beam") as err:
+        load_mission(folder)
+    assert err.value.source.endswith("DVL_trajectory2.csv") and err.value.field == "DVL X [m/s]"
+
+
 def test_missing_file_named(tmp_path):
     folder = make_akit_folder(tmp_path, n=4)
     (folder / "DVL_trajectory4.csv").unlink()

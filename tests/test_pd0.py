@@ -240,7 +240,7 @@ def test_a_file_cut_inside_an_ensemble_is_found(tmp_path):
     """The scan finds an ensemble the end of the file cuts (its offset, the bytes present, the length its header
     gives); a whole file and trailing bytes that are no header give none."""
     from graphnav.io.pd0 import scan_pd0
-    whole = _fake_ensemble(40) + _fake_ensemble(40)
+    whole = _fake_ensemble(40) + _fake_ensemble(42)     # two ensembles (the same bytes twice are one, repeated)
     path = tmp_path / "cut.pd0"
     path.write_bytes(whole + _fake_ensemble(60)[:25])
     scan = scan_pd0(path)

@@ -239,3 +239,23 @@ def test_a_corrupt_ensemble_is_left_out_not_fatal(pd0_dir, tmp_path):
         log = read_dvl(tmp_path / "corrupt.PD0")
     assert log.counts["bad checksum (ensemble left out)"] == 1
     assert log.counts["ensembles in file"] == 261 and log.counts["read"] == 260
+
+
+def test_an_ensemble_written_twice_is_read_once_not_a_crash(pd0_dir, tmp_path):
+    """A logger that wrote ensembles again right after themselves (byte for byte): dolfyn fails on the file
+    (a time dimension of two lengths) and graphnav's clean-up of that failure recursed without end (before:
+    RecursionError on RiverPro_test01.PD0, and 'time stamp duplicated' on winriver01.PD0 with an IMU). The copies
+    are left out, counted and warned about, and the pings read are the clean file's."""
+    src = pd0_dir / "RiverPro_test01.PD0"
+    raw = src.read_bytes()
+    a, b = pd0.scan_pd0(src).spans[100]
+    (tmp_path / "twice.PD0").write_bytes(raw[:b] + raw[a:b] * 3 + raw[b:])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        clean = read_dvl(src)
+    with pytest.warns(RuntimeWarning, match=r"3 ensemble\(s\) written twice \(identical byte for byte"):
+        log = read_dvl(tmp_path / "twice.PD0")
+    assert log.counts["ensemble written twice (copy left out)"] == 3
+    assert log.counts["read"] == clean.counts["read"] == 272
+    np.testing.assert_array_equal(log.t, clean.t)
+    np.testing.assert_array_equal(log.beams, clean.beams)

@@ -289,6 +289,8 @@ def estimate_dvl_time_offset(reference: Reference, t_dvl_raw: np.ndarray, v_dvl:
     ok = reference.covers(t_raw + search_s[0]) & reference.covers(t_raw + search_s[1])
     if ok.sum() < 10:
         raise DataError("too little overlap between DVL and reference to estimate a time offset", "dvl")
+    if not np.all(np.isfinite(v_dvl[ok]), axis=1).any():        # the fit would divide by zero pings
+        raise DataError("no DVL ping with a velocity inside the reference span to estimate a time offset", "dvl")
 
     def fit(offset):
         r, omega, _, _ = dvl_design(reference, t_raw + offset, v_dvl, ok)

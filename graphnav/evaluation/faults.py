@@ -1344,6 +1344,9 @@ CLI_CASES: tuple[CliCase, ...] = (
     _sim("DVL: clock 3 days ahead of the IMU", "smooth", E, _damage("DVL", _shift_stamps(3 * 86400.0))),
     _sim("DVL: 10 pings of exactly 0 m/s (no bottom lock)", "smooth", W,
          _damage("DVL", _set(_t_between(70.0, 80.0), _DVL_XYZ, 0.0))),
+    # before: ZeroDivisionError in the DVL time-offset fit against the GT
+    _sim("DVL: every ping NaN (no bottom lock all mission)", "smooth", E, _damage("DVL", _set(slice(None), _DVL_XYZ,
+                                                                                            np.nan))),
     # ground truth
     _sim("GT: one velocity sample of 1e6 m/s", "smooth", W, _damage("GT", _set(lambda d: 50, 4, 1e6))),
     _sim("GT: latitude and longitude in degrees", "smooth", W,

@@ -41,7 +41,8 @@ configuration file, the stream and the key, with the closest accepted one.
 
 Files: leading ``#`` comment lines are skipped; the separator is the one of ``,`` ``;`` tab the header line uses
 most, or a stream's ``delimiter``; in a ``;`` or tab separated file a number with one decimal comma (``0,25``) is
-read as ``0.25`` (each noted in the stream's notes).
+read as ``0.25`` (each noted in the stream's notes); a row with more non-empty cells than the header (``0,25`` in a
+comma-separated file is two cells) is a DataError naming its lines, since its values would be read under other columns.
 
 DVL: ``beams`` (along-beam velocities of the head) with optional ``valid`` flag columns (non-zero = valid;
 without them every finite beam is valid; RDI's -32768 / -32.768 flags are invalid), or only ``v_b`` (a DVL
@@ -162,6 +163,25 @@ class _Table:
         rows = list(csv.reader(lines[self.comments:], delimiter=delimiter))
         self.header = [h.strip() for h in rows[0]]
         self.rows = rows[1:]
+        self._check_row_widths()
+
+    def _check_row_widths(self) -> None:
+        """A row with more cells than the header (empty trailing cells aside) has its values under other columns'
+        names: a decimal comma in a comma-separated file (``0,25`` is two cells) or a header that lost a column.
+        Read by position they would be wrong numbers with no error, so the file is refused naming its lines."""
+        width, first = len(self.header), self.comments + 2
+        wide = [(i + first, len(row)) for i, row in enumerate(self.rows)
+                if len(row) > width and any(cell.strip() for cell in row[width:])]
+        if not wide:
+            return
+        line, cells = wide[0]
+        cause = (f"a decimal comma in a {self.delimiter!r}-separated file (write decimal points, or separate the "
+                 "cells by ';' or tab), or a column missing from the header") if self.delimiter == "," else \
+            "a column missing from the header, or a separator inside a cell"
+        shown = ", ".join(str(n) for n, _ in wide[:10]) + (f" (and {len(wide) - 10} more)" if len(wide) > 10 else "")
+        raise DataError(f"{cells} cells where the header (line {self.comments + 1}) names {width}: the values would be "
+                        f"read under the wrong columns; {len(wide)} such line(s): {shown}. Likely {cause}",
+                        str(self.path), line, self.header[-1])
 
     def notes(self) -> list[str]:
         """What reading the file took beyond a plain comma-separated table, for the stream's notes."""

@@ -886,6 +886,7 @@ def read_akit_mission(folder: str | Path, *, lever_arm_b=None, beam_seed: int = 
         if written is None:                           # a written folder's GT is the simulation's truth
             meta["gt_velocity_sigma_n"] = list(AKIT_GT_VELOCITY_SIGMA_N)
     _record_akit_streams(meta, imu, dvl, depth, gt, refused, raw.dvl_lines, from_file)
+    _check_a_dvl_ping_is_usable(meta, src["DVL"])
     if written is not None:
         add_note(meta, "config", f"{written}: the configuration the folder was written with (graphnav simulate or "
                                  "write_akit); ground truth at the IMU point, stamps as written")
@@ -951,6 +952,17 @@ def _akit_refused(n: int, flagged: np.ndarray, envelope: dict, spec, no_lock: np
         limit = describe_implausible({key: np.ones(1, bool)}, spec).split(" ", 1)[1]   # "1 speed > 3 m/s" -> limit
         out[f"outside the vehicle's envelope ({limit})"] = mask
     return out
+
+
+def _check_a_dvl_ping_is_usable(meta: dict, source: str) -> None:
+    """A DVL file none of whose pings is usable (every row NaN, empty, flagged or refused) leaves the estimators
+    nothing to fuse and the DVL time-offset fit nothing to fit: refused naming the file and the reasons, as a
+    column-map log's is (:func:`graphnav.core.screening.check_refused_fraction`)."""
+    entry = meta.get("streams", {}).get("dvl", {})
+    if entry.get("read") and not entry.get("used"):
+        reasons = ", ".join(f"{n} {r}" for r, n in sorted(entry.get("refused", {}).items(), key=lambda kv: -kv[1]))
+        raise DataError(f"no usable DVL ping: all {entry['read']} refused ({reasons}); check that the DVL kept bottom "
+                        "lock and that the file holds its velocity", source, field=AKIT_COLUMNS["DVL"][1])
 
 
 def _record_akit_streams(meta: dict, imu, dvl, depth, gt, refused: dict, dvl_lines: np.ndarray,

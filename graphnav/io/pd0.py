@@ -36,7 +36,8 @@ then equals RDI's bottom-track beam velocity as recorded, and a convex head has 
   follows it (the end of a file may be cut), so a complete file's last ensemble is not read; it is counted. A
   file that ends inside an ensemble (a copy or download cut short) has that ensemble left out, warned about and
   counted (``counts``, and a note of the DVL stream), as a corrupt ensemble (wrong checksum) is, and so are
-  bytes before the first ensemble (a logger that started mid-ensemble or wrote a preamble).
+  bytes before the first ensemble (a logger that started mid-ensemble or wrote a preamble) and an ensemble written
+  again byte for byte right after itself (a logger's retry: the same ping twice, which dolfyn cannot read).
 * depth from the pressure sensor (dbar -> m with the configured water density). A pressure word of
   0xFFFFFFFF (no sensor: 4.29e6 dbar) or a depth outside :data:`DEPTH_RANGE_M` is invalid, counted, warned. A
   pressure is positive down by its physics, so there is no convention to declare (``csv_columns.depth.positive`` is
@@ -96,7 +97,7 @@ class Pd0Scan:
     """What a byte-level pass over a PD0 file finds.
 
     Attributes:
-        ensembles: complete ensembles with a valid checksum.
+        ensembles: complete ensembles with a valid checksum (an ensemble repeated right after itself once).
         bad_checksum: headers (0x7F 0x7F) followed by a full-length ensemble whose checksum fails.
         trailing_bytes: bytes after the last complete ensemble (a file cut by a logger).
         beam_matrix: (4,4) beam-to-instrument matrix of block 0x3200 of the first ensemble (rows X, Y, Z,
@@ -108,6 +109,7 @@ class Pd0Scan:
         cut_offset: the byte offset of that cut ensemble, 0 when none.
         leading_bytes: bytes before the first ensemble header (complete or corrupt), skipped: a logger that
             started mid-ensemble or wrote its own preamble; it is the first ensemble's byte offset.
+        repeated: checksummed ensembles identical byte for byte to the one before them (left out of ``spans``).
     """
 
     ensembles: int
@@ -119,6 +121,7 @@ class Pd0Scan:
     cut_length: int = 0
     cut_offset: int = 0
     leading_bytes: int = 0
+    repeated: int = 0
 
 
 def _ensembles(raw: bytes, limit: int | None = None):
@@ -152,18 +155,22 @@ def _beam_matrix(raw: bytes, start: int) -> np.ndarray | None:
 def scan_pd0(path: str | Path) -> Pd0Scan:
     """Count the complete, checksummed ensembles of a PD0 file and read its stored beam matrix."""
     raw = Path(path).read_bytes()
-    spans, bad, bad_end, first = [], 0, 0, None
+    spans, bad, bad_end, first, repeated, end = [], 0, 0, None, 0, 0
     for start, length, ok in _ensembles(raw):
         first = start if first is None else first
         if ok:
-            spans.append((start, start + length + 2))
+            end = start + length + 2
+        if ok and spans and raw[start:end] == raw[slice(*spans[-1])]:
+            repeated += 1
+        elif ok:
+            spans.append((start, end))
         elif start >= bad_end:         # a 0x7F7F inside a corrupt ensemble is not another ensemble
             bad += 1
             bad_end = start + length + 2
-    cut_offset, cut_bytes, cut_length = _cut_ensemble(raw, max(spans[-1][1] if spans else 0, bad_end))
-    return Pd0Scan(len(spans), bad, len(raw) - spans[-1][1] if spans else len(raw),
+    cut_offset, cut_bytes, cut_length = _cut_ensemble(raw, max(end, bad_end))
+    return Pd0Scan(len(spans), bad, len(raw) - end if spans else len(raw),
                    _beam_matrix(raw, spans[0][0]) if spans else None, spans, cut_bytes, cut_length, cut_offset,
-                   first or 0)
+                   first or 0, repeated)
 
 
 def _cut_ensemble(raw: bytes, end: int) -> tuple[int, int, int]:
@@ -180,8 +187,9 @@ def _cut_ensemble(raw: bytes, end: int) -> tuple[int, int, int]:
 
 
 def _read_good_ensembles(path: Path, scan: Pd0Scan):
-    """dolfyn's dataset of only the checksummed ensembles of ``path``: dolfyn itself stops with an error on a
-    corrupt ensemble (it parses on past a failed checksum), so those are cut out into a temporary copy."""
+    """dolfyn's dataset of only the checksummed ensembles of ``path``, each once: dolfyn itself stops with an error
+    on a corrupt ensemble (it parses on past a failed checksum) and on one repeated (a time dimension of two lengths),
+    so those are cut out into a temporary copy."""
     import tempfile
     raw = path.read_bytes()
     with tempfile.TemporaryDirectory(prefix="graphnav-pd0-") as tmp:
@@ -284,7 +292,10 @@ def _close_readers(tb) -> None:
     (the DataError's context) keeps the reader alive, so the file stayed open and Python warned about it later
     (``ResourceWarning: unclosed file``) in whatever the caller did next."""
     while tb is not None:
-        reader = tb.tb_frame.f_locals.get("self")
+        # dolfyn's own frames only: another library's ``self`` (an xarray Dataset half built from a corrupt file)
+        # can recurse without end in its attribute lookup
+        dolfyn = str(tb.tb_frame.f_globals.get("__name__", "")).startswith("mhkit.dolfyn")
+        reader = tb.tb_frame.f_locals.get("self") if dolfyn else None
         for holder in (reader, getattr(reader, "f", None)):        # _RDIReader.f is a bin_reader; bin_reader.f the file
             f = getattr(holder, "f", None)
             if isinstance(f, io.IOBase):
@@ -413,6 +424,8 @@ def _instrument(ds, scan: Pd0Scan, matrix_source: str) -> dict:
 CUT_ENSEMBLE = "cut ensemble at the end of the file (left out)"
 #: The :attr:`DvlLog.counts` key of the bytes before the first ensemble (skipped; a number of bytes, not pings).
 LEADING_BYTES = "byte(s) before the first ensemble (skipped)"
+#: The :attr:`DvlLog.counts` key of the ensembles written again right after themselves (left out, not read).
+REPEATED_ENSEMBLE = "ensemble written twice (copy left out)"
 
 
 def _warn_cut(scan: Pd0Scan, source: str) -> None:
@@ -436,8 +449,8 @@ def _warn_leading(scan: Pd0Scan, source: str) -> None:
 def left_out_notes(counts: dict) -> list[str]:
     """The notes of a DVL stream on the parts of the file that were left out before any ping was read (corrupt
     ensembles, one cut by the end of the file, bytes before the first), from :attr:`DvlLog.counts`."""
-    return [f"{counts[key]} {key}" for key in ("bad checksum (ensemble left out)", CUT_ENSEMBLE, LEADING_BYTES)
-            if counts.get(key)]
+    return [f"{counts[key]} {key}" for key in ("bad checksum (ensemble left out)", REPEATED_ENSEMBLE, CUT_ENSEMBLE,
+                                               LEADING_BYTES) if counts.get(key)]
 
 
 def _warn_counts(counts: dict, source: str) -> None:
@@ -508,6 +521,10 @@ def _dataset(path: Path, scan: Pd0Scan):
     if scan.bad_checksum:
         warnings.warn(f"{source}: {scan.bad_checksum} ensemble(s) with a wrong checksum (corrupt) left out; "
                       f"{scan.ensembles} good ones read", RuntimeWarning, stacklevel=3)
+    if scan.repeated:
+        warnings.warn(f"{source}: {scan.repeated} ensemble(s) written twice (identical byte for byte to the one "
+                      f"before: a logger's retry) left out; {scan.ensembles} read once", RuntimeWarning, stacklevel=3)
+    if scan.bad_checksum or scan.repeated:
         ds = _read_good_ensembles(path, scan)
     else:
         ds = _read_rdi(path)
@@ -526,7 +543,8 @@ def read_pd0_log(path: str | Path, config: SensorConfig | None = None) -> DvlLog
     ``no bottom lock``, ``fewer than 3 beams`` (beam files), ``3-beam solution`` (rotated files: velocity
     without beams), ``not read by dolfyn (last ensemble)``, ``flagged beams`` (beam values, beam files),
     ``bad pressure word`` and ``depth out of range`` (pressure readings), ``bad checksum (ensemble left out)``
-    (corrupt ensembles, not part of ``read``), :data:`CUT_ENSEMBLE` (1 when the file ends inside an ensemble, not
+    (corrupt ensembles, not part of ``read``), :data:`REPEATED_ENSEMBLE` (copies left out, not part of ``read``),
+    :data:`CUT_ENSEMBLE` (1 when the file ends inside an ensemble, not
     part of ``read``), :data:`LEADING_BYTES` (bytes before the first ensemble, skipped). ``instrument`` holds the fixed
     leader (model, frequency, beam angle and pattern, orientation, EX bits, serial, firmware), where the beam
     matrix came from and the geometry in ``d`` (``beam_theta_rad``, ``beam_psi_rad``). ``v_n`` of instrument,
@@ -558,6 +576,8 @@ def read_pd0_log(path: str | Path, config: SensorConfig | None = None) -> DvlLog
     counts = {"ensembles in file": scan.ensembles, "read": len(t)}
     if scan.bad_checksum:
         counts["bad checksum (ensemble left out)"] = scan.bad_checksum
+    if scan.repeated:
+        counts[REPEATED_ENSEMBLE] = scan.repeated
     if scan.leading_bytes:
         counts[LEADING_BYTES] = scan.leading_bytes
         _warn_leading(scan, source)
