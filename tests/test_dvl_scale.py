@@ -177,6 +177,30 @@ def test_a_crabbing_vehicle_whose_dvl_y_is_negated_is_told_the_y_beside_the_turn
         load_mission(*_folder(tmp_path, (crabbing, t, None), v_b * [1.0, -1.0, 1.0]))
 
 
+def _akit_piece_log(akit_dir, tmp_path, trajectory: str, negated: list[int], late_s: float = 0.0, crop_s: float = 60.0):
+    """The first ``crop_s`` s of an A-KIT trajectory as a column-map log of the files' own columns (the DVL on a clock
+    to be found), the DVL velocity columns ``negated`` (0, 1, 2: X, Y, Z) and its stamps ``late_s`` s late: the
+    folder and its configuration file."""
+    import json
+
+    from graphnav.io.loaders import akit_files
+    files, cols = akit_files(akit_dir / trajectory), {}
+    for kind in ("IMU", "DVL"):
+        head, *rows = files[kind].read_text().splitlines()
+        a = np.array([[float(x) for x in r.split(",")] for r in rows])
+        a = a[a[:, 0] < crop_s]
+        if kind == "DVL":
+            a[:, 0] += late_s
+            a[:, [1 + i for i in negated]] *= -1.0
+        np.savetxt(tmp_path / f"{kind}.csv", a, delimiter=",", fmt="%.12g", comments="", header=head)
+        cols[kind] = head.split(",")
+    cmap = {"time_unit": "s",
+            "imu": {"file": "IMU.csv", "t": cols["IMU"][0], "f_b": cols["IMU"][1:4], "omega_b": cols["IMU"][4:7]},
+            "dvl": {"file": "DVL.csv", "t": cols["DVL"][0], "v_b": cols["DVL"][1:4]}}
+    (tmp_path / "config.json").write_text(json.dumps({"csv_columns": cmap}))
+    return tmp_path, tmp_path / "config.json"
+
+
 @pytest.mark.parametrize("trajectory", ["Trajectory5", "Trajectory8"])
 def test_a_short_akit_piece_whose_dvl_y_is_negated_is_refused_where_only_the_y_negated_finds_its_clock(
         akit_dir, tmp_path, trajectory):
@@ -184,29 +208,41 @@ def test_a_short_akit_piece_whose_dvl_y_is_negated_is_refused_where_only_the_y_n
     negated: the clock search found no clear offset (the velocity's changes fit the IMU at none), and the log loaded
     with the clock's warning, the y unjudged (judged only on a clock known). Searched again with the y negated, the
     DVL finds its clock (+0.96-0.99 s, the IMU explaining 0.97-0.98 of its velocity changes): refused naming the y."""
-    import json
-
     from graphnav.core.errors import DataError
-    from graphnav.io.loaders import akit_files
     from graphnav.missions import load_mission
-    files, cols = akit_files(akit_dir / trajectory), {}
-    for kind in ("IMU", "DVL"):
-        head, *rows = files[kind].read_text().splitlines()
-        a = np.array([[float(x) for x in r.split(",")] for r in rows])
-        a = a[a[:, 0] < 60.0]
-        if kind == "DVL":
-            a[:, 2] *= -1.0
-        np.savetxt(tmp_path / f"{kind}.csv", a, delimiter=",", fmt="%.12g", comments="", header=head)
-        cols[kind] = head.split(",")
-    cmap = {"time_unit": "s",
-            "imu": {"file": "IMU.csv", "t": cols["IMU"][0], "f_b": cols["IMU"][1:4], "omega_b": cols["IMU"][4:7]},
-            "dvl": {"file": "DVL.csv", "t": cols["DVL"][0], "v_b": cols["DVL"][1:4]}}
-    (tmp_path / "config.json").write_text(json.dumps({"csv_columns": cmap}))
     with pytest.raises(DataError, match=r"DVL clock offset not found .* but with its y negated the DVL finds its clock "
                                         r"at \+0\.9\d+ s .*: not the clock but the DVL velocity's y is negated against "
                                         r"the IMU: .* negate the y velocity column in the file") as err:
-        load_mission(tmp_path, tmp_path / "config.json")
+        load_mission(*_akit_piece_log(akit_dir, tmp_path, trajectory, [1]))
     assert err.value.source.endswith("DVL.csv")
+
+
+@pytest.mark.parametrize("trajectory, said", [
+    pytest.param("Trajectory5", r"DVL clock offset not found \(.*\) with the stamps on the IMU span", id="not-found"),
+    pytest.param("Trajectory11", r"the DVL clock search finds the offset -21\.9\d+ s \(the IMU explains 0\.5\d of",
+                 id="settled-off"),
+])
+def test_a_late_akit_piece_in_flu_axes_is_refused_where_only_its_y_and_z_negated_find_its_clock(
+        akit_dir, tmp_path, trajectory, said):
+    """The first 60 s of an A-KIT trajectory as a column-map log, its DVL Y and Z columns negated (FLU axes read as
+    FRD) and its stamps 20 s late: the clock search found no clear offset (Trajectory5) or settled 2.8 s off the right
+    one (Trajectory11, explaining 0.56 there), and the log loaded with y and z negated, the axes never judged (judged
+    at the stamps only, 20 s off). Searched again with y and z negated, the DVL finds its clock clearly (-19.1 s, the
+    DVL about 1 s early as published) and leaves 3x less unexplained than as read at its best: refused naming FLU and
+    the key. The same piece with its axes as recorded loads with its clock found there."""
+    from graphnav.core.errors import DataError
+    from graphnav.missions import load_mission
+    flu = (r".*; but with its y and z negated the DVL finds its clock at -19\.\d+ s \(the IMU explains 0\.(8|9)\d .*x "
+           r"needed\): not the clock but FLU axes \(ROS base_link\) read as FRD\? declare csv_columns.dvl.frame 'flu'")
+    with pytest.raises(DataError, match=said + flu) as err:
+        load_mission(*_akit_piece_log(akit_dir, tmp_path, trajectory, [1, 2], late_s=20.0))
+    assert err.value.source.endswith("DVL.csv")
+    clean = tmp_path / "clean"
+    clean.mkdir()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        m = load_mission(*_akit_piece_log(akit_dir, clean, trajectory, [], late_s=20.0))
+    assert -19.5 < m.config.dvl_time_offset_s < -18.5
 
 
 def test_a_long_level_log_whose_dvl_y_is_negated_is_not_left_to_the_flu_check_by_noise_variances_alone():

@@ -123,6 +123,14 @@ SPREAD_MIN_WINDOWS = 4
 SPREAD_MAX_RATIO = 2.0
 
 
+def clear_peak(peak: float, sharpness: float, repeated: bool) -> bool:
+    """A clock search's peak (the share of the velocity's changes explained there) stands out of the residuals at every
+    other offset (:data:`MIN_PEAK`, :data:`MIN_SSE_RATIO` for ``sharpness``), and no offset further off explained about
+    as much (``repeated``): :attr:`ClockOffset.clear`, also of an estimate kept as a dict
+    (:meth:`ClockOffset.to_dict`)."""
+    return peak >= MIN_PEAK and sharpness >= MIN_SSE_RATIO and not repeated
+
+
 @dataclass
 class ClockOffset:
     """A clock offset found from the data.
@@ -167,7 +175,7 @@ class ClockOffset:
     def clear(self) -> bool:
         """The peak stands out of the residuals at every other offset (:data:`MIN_PEAK`, :data:`MIN_SSE_RATIO`); an
         offset another further off explains about as well (``repeated_at_s``) is not clear."""
-        return self.peak >= MIN_PEAK and self.sharpness >= MIN_SSE_RATIO and not self.repeated
+        return clear_peak(self.peak, self.sharpness, self.repeated)
 
     @property
     def repeated(self) -> bool:

@@ -164,6 +164,16 @@ def flu_fit_ratio(read, imu, dvl, config, offsets=(0.0,)) -> tuple[float, float]
     return read.score(float(offsets[0]))[1] / max(sse, 1e-300), explained
 
 
+def y_negated_over_flu(read, imu, dvl, config) -> float:
+    """The share of the DVL velocity's changes the IMU leaves unexplained at its stamps with the velocity's y alone
+    negated (:data:`DVL_Y_NEGATED`) over with its y and z negated (:data:`DVL_FLU`), on the windows of the clock model
+    ``read`` (the DVL as read): about 1 where the vertical velocity barely changes (a level vehicle), which cannot tell
+    FLU axes from a y negated."""
+    models = {k: dvl_window_model(imu, dvl, config, transform=m, ints=read.imu)[0]
+              for k, m in (("y", DVL_Y_NEGATED), ("flu", DVL_FLU))}
+    return models["y"].score(0.0)[1] / max(models["flu"].score(0.0)[1], 1e-300)
+
+
 #: The index of the DVL stamps as they stand (offset 0) in :data:`SCALE_OFFSETS_S`.
 AT_STAMPS = int(np.argmin(np.abs(SCALE_OFFSETS_S)))
 #: The IMU turns :func:`imu_yaw_fit` tries about z, deg (the IMU's axes are ``Rz(yaw)^T`` body's: 90 puts its x to
@@ -483,7 +493,7 @@ def _forward_turned_back(course: float, turn: float) -> bool:
 
 
 def check_imu_yaw(imu, dvl, config, meta: dict, frame: dict, model=None, offsets=(0.0,),
-                  carried: bool = False, or_dvl_y: str = "") -> int | None:
+                  carried: bool = False, or_dvl_y: str = "", fixes: dict | None = None) -> int | None:
     """DataError naming the IMU file, its six columns (``frame["fields"]``), the declared frame (``frame["what"]``)
     and the turn that fits, when a DVL velocity pointing forward (in the body frame) fits the IMU's accelerations
     better with the IMU turned 90, 180 or 270 deg about z (:func:`imu_yaw_fit`, :data:`IMU_YAW_MIN_Q`): an IMU
@@ -497,6 +507,8 @@ def check_imu_yaw(imu, dvl, config, meta: dict, frame: dict, model=None, offsets
     kept as body in a current (:data:`~graphnav.io.dvl_frame.CARRIED`), whose direction says nothing of the vehicle's
     forward: a turn that fits better is refused naming both instruments. ``or_dvl_y``: the sentence naming the DVL's
     y negated, which fits about as well as the turn (:func:`check_dvl_y`), added to a refusal of the turn.
+    ``fixes``: what the DVL messages advise; given, a half turn refused naming both instruments also names FLU axes
+    read as FRD where they fit about as well (:func:`_or_flu_axes`).
     """
     try:
         model = model or judging_model(imu, dvl, config)
@@ -521,6 +533,7 @@ def check_imu_yaw(imu, dvl, config, meta: dict, frame: dict, model=None, offsets
     if not _forward(course):
         if _forward_turned_back(course, np.deg2rad(yaw)):
             return yaw      # the DVL is the one turned (turned back, its velocity points forward)
+        or_y += _or_flu_axes(models, imu, dvl, config, yaw, offsets, fixes)
         raise _unless_declared_earth(meta, _either_turned(imu, dvl, frame, q, yaw, course), or_y)
     if abs(q) < IMU_YAW_MIN_Q:
         add_note(meta, "imu", f"its mounting about z not judged against the DVL: the velocity changes tell the axes "
@@ -854,6 +867,25 @@ def _imu_turn_fix(yaw: int, frame: dict) -> str:
             "(imu_axis_signs only negates axes)")
 
 
+def _or_flu_axes(models: dict, imu, dvl, config, yaw: int, offsets, fixes: dict | None) -> str:
+    """The sentence a refusal of a half turn between the IMU and a DVL pointing forward neither way adds where the
+    DVL velocity with its y and z negated (FLU axes read as FRD, :data:`DVL_FLU`) fits the IMU less than
+    :data:`IMU_YAW_MIN_Q` noise variances worse than the turn, or better (``models``: :func:`imu_turned_models`, each
+    fit at its best of ``offsets``): on a vehicle moving sideways, whose x and z velocity barely change, both negate
+    what changes. FLU columns of an ROV moving sideways were refused as an IMU or DVL turned 180 deg, FLU unnamed.
+    '' for other turns, without ``fixes``, or where the turn fits clearly better."""
+    if yaw != 180 or fixes is None:
+        return ""
+    flu, _ = dvl_window_model(imu, dvl, config, transform=DVL_FLU, ints=models[0].imu)
+    fits = _best_fits({0: models[0], 180: models[180], "flu": flu}, offsets)
+    q = _evidence(fits[180], fits["flu"])
+    if q <= -IMU_YAW_MIN_Q:
+        return ""
+    return (f". Or the DVL velocity is in FLU axes (ROS base_link) read as FRD, its y and z negated, which fits "
+            f"{abs(q):.3g} noise variances {'better' if q > 0 else 'worse'} than the half turn (a vehicle moving "
+            f"sideways barely tells them apart): if so, {fixes['flu']}")
+
+
 def _either_turned(imu, dvl, frame: dict, q: float, yaw: int, course: float, carried: bool = False) -> DataError:
     """The DataError for a turn about z between the IMU and the DVL when the DVL velocity points forward neither as
     read nor turned back (``course``: its mean direction, rad, NaN for none) or is ``carried`` by a current: either
@@ -1009,7 +1041,7 @@ def check_velocity_against_imu(imu, dvl, config, meta: dict, moved: bool = False
         # and where another offset fits as well turned back (a speed swinging with a period) its best is noise too
         fixed = r2 >= MIN_SCALE_R2 and not sign_free
         offsets = ((0.0,) if carried else (SCALE_OFFSETS_S[best],) if fixed else SCALE_OFFSETS_S)
-        dvl_turn = check_imu_yaw(imu, dvl, config, meta, imu_frame, model, offsets, carried, or_dvl_y)
+        dvl_turn = check_imu_yaw(imu, dvl, config, meta, imu_frame, model, offsets, carried, or_dvl_y, fixes)
     if turned:
         _say_dvl_turned(dvl, meta, field, fixes, f"the DVL velocity is turned {np.degrees(yaw):+.1f} deg about z from "
                         f"the IMU's axes (the fit explains {turn_r2:.2f} of its changes): columns in the instrument "
@@ -1041,7 +1073,9 @@ def check_flu_axes(model, imu, dvl, config, meta: dict, field: str, fixes: dict,
     read as FRD. ``clock_known`` False (stamps a clock search has still to judge): a velocity that fits so at its
     stamps is judged again with each reading at its own best offset within +- :data:`SCALE_SEARCH_S`, and refused
     only where y and z negated still fit so: half a period off, a speed swinging with a period fits negated (along y
-    on a vehicle moving sideways, as FLU axes do), while FLU axes negate neither x nor the clock (a note then)."""
+    on a vehicle moving sideways, as FLU axes do), while FLU axes negate neither x nor the clock (a note then; the
+    clock search of a log then tries the velocity with y and z negated where it finds no clear clock, or one that
+    explains little: :func:`graphnav.calibration.preparation._flu_finds_the_clock`)."""
     ratio, explained = flu_fit_ratio(model, imu, dvl, config)
     if not (explained >= MIN_FLU_EXPLAINED and ratio >= FLU_SSE_RATIO):
         return

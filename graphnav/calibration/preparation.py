@@ -44,7 +44,8 @@ vertical velocity
 (:func:`graphnav.io.units.depth_convention`: positive up turned down, other units refused); a DVL on a clock of its
 own is put on the IMU's
 (:func:`graphnav.calibration.clock.align_stream_clocks`, when the column map says ``"clock": "auto"``; where no
-clock is found, a DVL or IMU mounted turned about z that hides it is named, :func:`_turn_finds_the_clock`); a bag
+clock is found, a DVL or IMU mounted turned about z that hides it is named, :func:`_turn_finds_the_clock`, and so
+are FLU DVL axes read as FRD, :func:`_flu_finds_the_clock`); a bag
 without a heading source is told whether the configured gyro can gyrocompass. Their reference is put on the IMU clock
 (the configuration's ``gt_time_offset_s``, judged by the same clock search, else estimated as for A-KIT and added when
 it is more than noise) and
@@ -1106,19 +1107,22 @@ def _clock_not_found_said(est: dict) -> str:
 def _clock_searched(run, search, imu: ImuData, dvl: DvlData, config: SensorConfig, meta: dict,
                     declared: dict | None, fixes: dict, frame: dict):
     """``(run(imu), imu)``: the DVL clock search ``run`` with the gyro's scales tried (:func:`_with_the_gyro_tried`);
-    a failure tried again in other units (:func:`_unit_finds_the_clock`) and with the velocity turned about z
-    (:func:`_turn_finds_the_clock`, ``frame`` the IMU's axes judged), each a DataError where it finds the clock, else
-    the failure raised; a clock found is tried in other units where pings were refused for their speed, and a DVL on
-    the IMU span the search found no clear offset for is tried turned where its turn check saw a turn
+    a failure tried again in other units (:func:`_unit_finds_the_clock`), in FLU axes (:func:`_flu_finds_the_clock`)
+    and with the velocity turned about z (:func:`_turn_finds_the_clock`, ``frame`` the IMU's axes judged), each a
+    DataError where it finds the clock, else the failure raised; a clock found is tried in other units where pings
+    were refused for their speed, in FLU axes where it is not clear or explains little, and a DVL on the IMU span the
+    search found no clear offset for is tried turned where its turn check saw a turn
     (:func:`_turn_finds_the_clock_on_the_span`). ``declared``: the DVL velocity unit the IMU judges, ``fixes`` what
     the messages advise."""
     try:
         found = _with_the_gyro_tried(run, search, imu, dvl, config, meta)
     except DataError as err:
         _unit_finds_the_clock(err, search, imu, dvl, config, meta, declared, fixes)
+        _flu_finds_the_clock(err, search, imu, dvl, config, meta, fixes)
         _turn_finds_the_clock(err, search, imu, dvl, config, meta, fixes, frame, declared)
         raise
     _unit_finds_the_clock(None, search, found[1], dvl, config, meta, declared, fixes)
+    _flu_finds_the_clock(None, search, found[1], dvl, config, meta, fixes)
     _turn_finds_the_clock_on_the_span(search, found[1], dvl, config, meta, fixes, frame, declared)
     _y_finds_the_clock_on_the_span(search, found[1], dvl, config, meta, fixes)
     return found
@@ -1426,6 +1430,74 @@ def _y_finds_the_clock_on_the_span(search, imu: ImuData, dvl: DvlData, config: S
                     f"finds its clock at {found['offset_s']:+.3f} s (the IMU explains {found['peak']:.2f} of its "
                     f"velocity changes there, {found['second_peak']:.2f} at the next best offset): not the clock but "
                     f"{fit.said(fixes)}", *_where(None, dvl, meta, fixes))
+
+
+#: A DVL clock found explaining under this share of the velocity's changes is searched again with the velocity's y and
+#: z negated (:func:`_flu_finds_the_clock`): FLU copies of A-KIT pieces 5-60 s late had clear clocks found 3-92 s off
+#: the right one, explaining 0.20-0.56 there (0.77-0.99 negated, at the right one). Clean clocks explain 0.49-1.00 on
+#: the ten A-KIT trajectories' 60 and 200 s pieces, 0.44-0.88 on simulated missions with 5-10 mm/s beams: a search
+#: more where under, and no finding (as read they fit best).
+FLU_TRIAL_MAX_PEAK = 0.6
+#: Where the velocity with its y and z negated finds a clear clock explaining at least
+#: :data:`~graphnav.calibration.dvl_scale.MIN_FLU_EXPLAINED`, it is refused as FLU when the search's best as read leaves
+#: this many times as much of the velocity's changes unexplained as that clock, each at its own best offset (the two
+#: searches). Measured with the trial run on every log: FLU copies of the ten A-KIT trajectories' 60 and 200 s pieces
+#: (on time and 5-60 s late) 2.9-272, of simulated 200 s missions (5 and 10 mm/s beams) 1.76-4.9; their clean copies,
+#: the same searches the other way round, at most 0.35 (A-KIT) and 0.83 (simulated; 1.02 with the default 42 mm/s
+#: beams, whose trials find no clear clock). A clean log's trial may find a clear clock explaining 0.5 (a 60 s piece of
+#: Trajectory11: 0.56), never one explaining more than as read (0.91 there). Read near the trial's clock only (each
+#: reading at its best within +-20 s) the ratio does not separate them: a clean 60 s piece of Trajectory1 scored 3.3.
+FLU_TRIAL_RATIO = 1.5
+
+def _flu_finds_the_clock(err: DataError | None, search, imu: ImuData, dvl: DvlData, config: SensorConfig, meta: dict,
+                         fixes: dict) -> None:
+    """After the DVL clock search ``search(imu, meta, dvl) -> offset`` (s added to the ``dvl`` stamps) failed with
+    ``err``, or (``err`` None) left ``meta["clock_offsets"]["dvl"]`` without a clear offset (not confident, or taken
+    under the clear peak) or with one explaining under :data:`FLU_TRIAL_MAX_PEAK` of the velocity's changes: FLU axes
+    (ROS base_link) read as FRD leave the velocity's changes unexplained at the right offset, and the search gives up
+    or settles elsewhere.
+    It is tried with the velocity's y and z negated (:data:`~graphnav.calibration.dvl_scale.DVL_FLU`); where that finds
+    a clear clock explaining at least ``MIN_FLU_EXPLAINED`` and leaving :data:`FLU_TRIAL_RATIO` times less of the
+    velocity's changes unexplained than the search's best as read (each reading at its own best offset), a DataError
+    names the FLU axes, the offset and ``fixes["flu"]`` (and the y alone negated, ``fixes["y"]``, where that fits
+    about as well there: a level vehicle's vertical velocity barely changes; where it fits clearly better, the y's own
+    checks are left to say it). True FLU copies of A-KIT pieces 5-60 s late were
+    loaded at their stamps with the clock not found, or at a clock 3-92 s off (their y and z negated, unjudged); a
+    simulated FLU mission 5-60 s late was put +217..+272 s off. The data are never read negated."""
+    from graphnav.calibration.dvl_scale import (DVL_FLU, DVL_Y_MIN_RATIO, MIN_FLU_EXPLAINED, judging_model,
+                                                y_negated_over_flu)
+    read = meta.get("clock_offsets", {}).get("dvl")
+    if read is None or err is None and _clock_clear(read) and read["peak"] >= FLU_TRIAL_MAX_PEAK:
+        return
+    t, v = dvl_velocity_b(dvl, config)
+    flu = _trial_estimate(search, imu, DvlData(t, *no_beams(len(t)), v @ DVL_FLU.T, source=dvl.source), meta)
+    if flu is None or not _clock_clear(flu) or not flu["peak"] >= MIN_FLU_EXPLAINED:
+        return
+    ratio = (1.0 - read["peak"]) / max(1.0 - flu["peak"], 1e-9)
+    try:
+        there = dataclasses.replace(dvl, t=dvl.t + flu["offset_s"])
+        y_ratio = y_negated_over_flu(judging_model(imu, there, config), imu, there, config)
+    except DataError:
+        return
+    if ratio < FLU_TRIAL_RATIO or y_ratio < 1.0 / DVL_Y_MIN_RATIO:
+        return
+    said = (err.message if err is not None else _clock_said(None, read) if read["confident"]
+            else f"{_clock_not_found_said(read)} with the stamps on the IMU span")
+    or_y = ("" if y_ratio >= DVL_Y_MIN_RATIO else f" (or its y alone negated, which fits about as well there, "
+            f"{y_ratio:.2f}x as much left unexplained: if so, {fixes['y']})")
+    raise DataError(f"{said}; but with its y and z negated the DVL finds its clock at {flu['offset_s']:+.3f} s (the "
+                    f"IMU explains {flu['peak']:.2f} of its velocity changes there, {flu['second_peak']:.2f} at the "
+                    f"next best offset; as read its best, {read['offset_s']:+.3f} s, leaves {ratio:.3g}x as much of "
+                    f"them unexplained, {FLU_TRIAL_RATIO:g}x needed): not the clock but FLU axes (ROS base_link) read "
+                    f"as FRD? {fixes['flu']}{or_y}. The data are not read negated: with the axes declared, the clock "
+                    "search finds the offset itself", *_where(err, dvl, meta, fixes)) from err
+
+
+def _clock_clear(est: dict) -> bool:
+    """A DVL clock search's estimate ``est`` (``meta["clock_offsets"]["dvl"]``) has a clear peak
+    (:attr:`graphnav.calibration.clock.ClockOffset.clear`)."""
+    from graphnav.calibration.clock import clear_peak
+    return clear_peak(est["peak"], est["sharpness"], "repeated_at_s" in est)
 
 
 #: A turn left over after the quarter turn a clock was found with, deg, from which the turn is said to be "about" it.
