@@ -1406,12 +1406,13 @@ def _y_finds_the_clock(err: DataError | None, search, imu: ImuData, dvl: DvlData
     (:func:`_y_explains_better`: nearer the stamps, or clearly) and, at the offset it fits best, fits the IMU better
     than as read by the y fit's own bars (:attr:`~graphnav.calibration.dvl_scale.DvlYFit.refused`, explaining
     :data:`~graphnav.calibration.dvl_scale.DVL_Y_MIN_EXPLAINED` of the changes, unless only the y negated finds a
-    clock). A y negated, or an IMU mirrored,
+    clock, at the stamps). A y negated, or an IMU mirrored,
     leaves the velocity's changes unexplained at the right offset, and the search wanders: a level vehicle turning in a
     current, its DVL y negated on the IMU clock, was placed +102 s off, refused as a DVL on a clock of its own, or
     loaded with the clock not found (``clock: auto``); A-KIT pieces were loaded 6-92 s off. Not searched again where
     the clock found keeps the stamps (under ``keeps_s``, default half a ping period) and the y fits at them as the y
     check wants it (judged there), nor for a velocity kept in the frame declared for want of a body frame."""
+    from graphnav.calibration.clock import PEAK_EXCLUSION_S
     from graphnav.calibration.dvl_scale import DVL_Y_MIN_EXPLAINED, DVL_Y_NEGATED
     from graphnav.io.dvl_frame import KEPT_AS_DECLARED
     found = None if err is not None else meta.get("clock_offsets", {}).get("dvl")
@@ -1428,9 +1429,11 @@ def _y_finds_the_clock(err: DataError | None, search, imu: ImuData, dvl: DvlData
     if negated is None or not _y_explains_better(negated, found, on_the_imu_clock(dvl.t, imu.t)):
         return
     fit = _y_fit_at(imu, dvl, config, negated["offset_s"])
-    # where only the y negated finds a clock, the search's own bar of explaining stands for the fit's share explained:
-    # on 60 s A-KIT pieces its few windows explain 0.02-0.10 where the search explains 0.20-0.49
-    only_negated = negated["confident"] and not (found is not None and found["confident"])
+    # where only the y negated finds a clock, at the stamps, the search's own bar of explaining stands for the fit's
+    # share explained: on 60 s A-KIT pieces its few windows explain 0.02-0.10 where the search explains 0.20-0.49 within
+    # 1.1 s of them. Not far off them: an A-KIT folder's velocity in knots read as m/s "found" +87 s at 0.08 explained
+    only_negated = (negated["confident"] and abs(negated["offset_s"]) <= PEAK_EXCLUSION_S
+                    and not (found is not None and found["confident"]))
     if fit is None or not (fit.refused and (fit.explained >= DVL_Y_MIN_EXPLAINED or only_negated)):
         return
     read = (_clock_said(err, found) if err is not None or found["confident"] else
