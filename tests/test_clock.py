@@ -792,9 +792,10 @@ def test_the_clock_search_builds_its_window_model_once_per_load(tmp_path, monkey
     """The seed-36 log above 5 s late runs every step of the search on the IMU span: the near search, the search
     beyond it, the stamps' score and the offset nearer the stamps. Each built the DVL's window model again (the IMU's
     integrals on their grid and the DVL's windows): five times per load. The search builds it once and scores it
-    throughout, with the same offset found; its offset, judged in place of one 78 s off (not clear), is searched once
-    more with the velocity's y and z negated (FLU axes, ``preparation._flu_finds_the_clock``), whose velocity needs a
-    model of its own: two builds per load."""
+    throughout, with the same offset found; its offset, judged in place of one 78 s off (not clear) and moving the
+    stamps, is searched once more with the velocity's y and z negated (FLU axes,
+    ``preparation._flu_finds_the_clock``) and once with its y negated (``preparation._y_finds_the_clock``), each
+    velocity needing a model of its own: three builds per load."""
     from graphnav.calibration import clock
     built = []
 
@@ -809,19 +810,21 @@ def test_the_clock_search_builds_its_window_model_once_per_load(tmp_path, monkey
     config = _beams_log(sim, tmp_path / "late", 5.0, "auto")
     with pytest.warns(RuntimeWarning, match=r"DVL clock offset -5\.\d+ s"):
         m = load_mission(config.parent, config)
-    assert built == [True, True]
+    assert built == [True, True, True]
     np.testing.assert_allclose(m.dvl.t, sim.dvl.t, atol=1.0)
     assert m.meta["clock_offsets"]["dvl"]["repeated_at_s"] == pytest.approx(78.1, abs=1.0)
 
 
-@pytest.mark.parametrize("late_s, builds", [(0.0, 2), (60.0, 1)])
+@pytest.mark.parametrize("late_s, builds, searches", [(0.0, 2, 1), (60.0, 2, 2)])
 def test_an_akit_dvl_explained_poorly_as_stamped_builds_its_clock_model_once(akit_dir, tmp_path, monkeypatch, late_s,
-                                                                            builds):
+                                                                            builds, searches):
     """Trajectory13 without GT: the IMU explains its DVL poorly at its stamps as read (under MIN_PEAK), so the clock
     search looks for it further off than the fine search reaches. The stamps' score and the search run as a trial each
     built the DVL's window model, and 60 s late the search ran again for its warning and notes, building it a third
     time. The model is built once and the search runs once, its warning given and its note written once, at the same
-    offset. (Published, the other build is the DVL clock fit at the vehicle's offset: the stamps moved 1.02 s.)"""
+    offset. (Published, the other build is the DVL clock fit at the vehicle's offset: the stamps moved 1.02 s; 60 s
+    late, the search of the velocity with its y negated, which a clock moving the stamps gets, builds its own:
+    :func:`graphnav.calibration.preparation._y_finds_the_clock`.)"""
     import shutil
 
     from graphnav.calibration import clock
@@ -848,7 +851,7 @@ def test_an_akit_dvl_explained_poorly_as_stamped_builds_its_clock_model_once(aki
         warnings.simplefilter("always")
         m = load_akit(dst, imu_axis_signs=(1, -1, 1))
     assert built == [True] * builds
-    assert len(searched) == 1
+    assert len(searched) == searches
     found = [str(w.message) for w in said if "DVL clock offset" in str(w.message)]
     noted = [n for n in m.meta["streams"]["dvl"]["notes"] if n.startswith("DVL clock offset")]
     if late_s:

@@ -1,6 +1,7 @@
 """The declared DVL velocity unit against the IMU (graphnav.calibration.dvl_scale)."""
 from __future__ import annotations
 
+import re
 import warnings
 
 import numpy as np
@@ -88,9 +89,11 @@ def test_the_imu_turn_fit_over_several_dvl_offsets_leaves_out_the_padding_of_win
     assert unexplained == pytest.approx(alone, rel=1e-9)
 
 
-def _level_in_current(tmp_path, seed, signs_f=(1.0, 1.0, 1.0), signs_g=(1.0, 1.0, 1.0), signs_v=(1.0, 1.0, 1.0)):
+def _level_in_current(tmp_path, seed, signs_f=(1.0, 1.0, 1.0), signs_g=(1.0, 1.0, 1.0), signs_v=(1.0, 1.0, 1.0),
+                      dvl_entry=None, late_s=0.0):
     """A level vehicle at 1 m/s turning in a 0.3 m/s current (its velocity over the ground turns sideways in its
-    turns) as a column-map log, its accelerometer, gyro and DVL velocity multiplied by the signs given."""
+    turns) as a column-map log, its accelerometer, gyro and DVL velocity multiplied by the signs given; ``dvl_entry``:
+    the column map's DVL keys over the default (``clock: imu``), ``late_s``: s added to the DVL stamps."""
     import dataclasses
 
     from test_dvl_frame import _folder, _simulated, _slow_in_current
@@ -98,7 +101,7 @@ def _level_in_current(tmp_path, seed, signs_f=(1.0, 1.0, 1.0), signs_g=(1.0, 1.0
     t_imu, f_b, omega_b, t, v_b = _slow_in_current(seed, 1.0, 0.3, tilt_deg=(0.0, 0.0))
     level = dataclasses.replace(m, imu=dataclasses.replace(m.imu, t=t_imu, f_b=f_b * signs_f,
                                                           omega_b=omega_b * signs_g))
-    return _folder(tmp_path, (level, t, None), v_b * np.asarray(signs_v)), v_b
+    return _folder(tmp_path, (level, t, None), v_b * np.asarray(signs_v), dvl_entry, shift=late_s), v_b
 
 
 @pytest.mark.parametrize("seed", [1, 2])
@@ -294,3 +297,37 @@ def test_a_dvl_y_negated_fit_that_explains_nothing_is_warned_about_not_refused(t
         got = load_mission(tmp_path, tmp_path / "config.json")
     assert got.meta["streams"]["dvl"]["doubted"]["DVL velocity y fitting the IMU better negated (or the IMU "
                                                  "mirrored)"] == len(t)
+
+
+@pytest.mark.parametrize("seed, late_s", [(1, 0.0), (2, 0.0), (3, 0.0), (1, 30.0)])
+def test_a_dvl_y_negated_on_a_clock_to_be_found_is_refused_naming_the_y_not_placed_far_off(tmp_path, seed, late_s):
+    """A level vehicle turning in a 0.3 m/s current, its DVL y negated, on a clock to be found (``clock: auto``): the
+    y negated leaves the velocity's changes unexplained at the right offset, and the search wandered: seed 1 was
+    placed +102 s off (30 s late: +72 s), seed 2 refused as a DVL on a clock of its own, seed 3 loaded with the clock
+    not found. With the y negated the search explains more, nearer the stamps (-0.66 s at 0.30 against +102 s at
+    0.17), and the y fit there refuses it: refused naming the y."""
+    from graphnav.core.errors import DataError
+    from graphnav.missions import load_mission
+    folder, _ = _level_in_current(tmp_path, seed, signs_v=(1.0, -1.0, 1.0), dvl_entry={"clock": "auto"}, late_s=late_s)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        with pytest.raises(DataError, match=r"but with its y negated the DVL (finds its clock|fits the IMU best) at "
+                                            r".*: not the clock but the DVL velocity's y is negated against the "
+                                            r"IMU") as err:
+            load_mission(*folder)
+    assert err.value.source.endswith("dvl.csv")
+    negated_at = float(re.search(r"y negated the DVL \D+ at ([+-]\d+\.\d+) s", err.value.message).group(1))
+    assert negated_at == pytest.approx(-late_s, abs=5.0)
+
+
+@pytest.mark.parametrize("late_s", [0.0, 30.0])
+def test_the_same_vehicle_whose_dvl_y_is_right_loads_on_its_clock(tmp_path, late_s):
+    """The vehicle above with its DVL y as it is: with the y negated the search fits best +102 s off (0.17 explained,
+    against 0.30 near the right offset as read): not refused, the clock as the search has it (the stamps kept on time,
+    their clock not found; 30 s late, found)."""
+    from graphnav.missions import load_mission
+    folder, _ = _level_in_current(tmp_path, 1, dvl_entry={"clock": "auto"}, late_s=late_s)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        got = load_mission(*folder)
+    assert got.config.dvl_time_offset_s == pytest.approx(-late_s, abs=1.0)

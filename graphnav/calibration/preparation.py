@@ -45,7 +45,8 @@ vertical velocity
 own is put on the IMU's
 (:func:`graphnav.calibration.clock.align_stream_clocks`, when the column map says ``"clock": "auto"``; where no
 clock is found, a DVL or IMU mounted turned about z that hides it is named, :func:`_turn_finds_the_clock`, and so
-are FLU DVL axes read as FRD, :func:`_flu_finds_the_clock`); a bag
+are FLU DVL axes read as FRD, :func:`_flu_finds_the_clock`; where the DVL's y negated explains its velocity's changes
+better than the clock found, the y is named, :func:`_y_finds_the_clock`); a bag
 without a heading source is told whether the configured gyro can gyrocompass. Their reference is put on the IMU clock
 (the configuration's ``gt_time_offset_s``, judged by the same clock search, else estimated as for A-KIT and added when
 it is more than noise) and
@@ -720,6 +721,10 @@ def _clock_beyond_the_fine_search(imu: ImuData, dvl: DvlData, cfg: SensorConfig,
     noted = len(meta.get("streams", {}).get("dvl", {}).get("notes", []))
     trial = _tried(lambda meta_: search(imu, meta_, dvl, model), meta)
     est = _estimate_tried(trial)
+    if est is not None:
+        # the search wanders where the y negated leaves the velocity's changes unexplained at the right offset
+        from graphnav.calibration.dvl_scale import AKIT_DVL_FIXES
+        _y_finds_the_clock(None, search, imu, dvl, cfg, trial.meta, AKIT_DVL_FIXES, keeps_s=DVL_OFFSET_SEARCH_S)
     taken = est is not None and est["confident"] and abs(est["offset_s"]) > DVL_OFFSET_SEARCH_S
     if taken:
         trial.keep(meta)
@@ -1120,11 +1125,12 @@ def _clock_searched(run, search, imu: ImuData, dvl: DvlData, config: SensorConfi
         _unit_finds_the_clock(err, search, imu, dvl, config, meta, declared, fixes)
         _flu_finds_the_clock(err, search, imu, dvl, config, meta, fixes)
         _turn_finds_the_clock(err, search, imu, dvl, config, meta, fixes, frame, declared)
+        _y_finds_the_clock(err, search, imu, dvl, config, meta, fixes)
         raise
     _unit_finds_the_clock(None, search, found[1], dvl, config, meta, declared, fixes)
     _flu_finds_the_clock(None, search, found[1], dvl, config, meta, fixes)
     _turn_finds_the_clock_on_the_span(search, found[1], dvl, config, meta, fixes, frame, declared)
-    _y_finds_the_clock_on_the_span(search, found[1], dvl, config, meta, fixes)
+    _y_finds_the_clock(None, search, found[1], dvl, config, meta, fixes)
     return found
 
 
@@ -1401,35 +1407,81 @@ def _turn_finds_the_clock_on_the_span(search, imu: ImuData, dvl: DvlData, config
     _turn_finds_the_clock(err, search, imu, dvl, config, meta, fixes, frame, declared, tries=1)
 
 
-def _y_finds_the_clock_on_the_span(search, imu: ImuData, dvl: DvlData, config: SensorConfig, meta: dict,
-                                   fixes: dict) -> None:
-    """A DVL on the IMU span for which the clock search ``search(imu, meta, dvl) -> offset`` found no clear offset
-    (``meta["clock_offsets"]["dvl"]`` not confident) and whose velocity, at its stamps, fits the IMU clearly better
-    with its y negated (:attr:`~graphnav.calibration.dvl_scale.DvlYFit.refused`): searched again with the y negated,
-    a DataError naming the y (and the mirrored IMU) where that finds a clear clock. A y negated, or an IMU mirrored,
-    leaves the velocity's changes unexplained at every offset: A-KIT 60 s pieces with the DVL's y negated were loaded
-    with the clock not found and the y unjudged (judged only on a clock known: at stamps seconds off, a clean velocity
-    can fit better with its y negated, which the clock found then settles)."""
-    from graphnav.calibration.dvl_scale import DVL_Y_NEGATED, dvl_y_negated_fit, judging_model
+def _y_finds_the_clock(err: DataError | None, search, imu: ImuData, dvl: DvlData, config: SensorConfig, meta: dict,
+                       fixes: dict, keeps_s: float | None = None) -> None:
+    """After the DVL clock search ``search(imu, meta, dvl) -> offset`` (s added to the ``dvl`` stamps) failed with
+    ``err``, or found a clock or none clear (``err`` None: ``meta["clock_offsets"]["dvl"]``), it is tried with the DVL
+    velocity's y negated (:data:`~graphnav.calibration.dvl_scale.DVL_Y_NEGATED`); a DataError naming the y (and the
+    mirrored IMU) where the y negated explains the velocity's changes better than as read
+    (:func:`_y_explains_better`: nearer the stamps, or clearly) and, at the offset it fits best, fits the IMU better
+    than as read by the y fit's own bars (:attr:`~graphnav.calibration.dvl_scale.DvlYFit.refused`, explaining
+    :data:`~graphnav.calibration.dvl_scale.DVL_Y_MIN_EXPLAINED` of the changes, unless only the y negated finds a
+    clock, at the stamps). A y negated, or an IMU mirrored,
+    leaves the velocity's changes unexplained at the right offset, and the search wanders: a level vehicle turning in a
+    current, its DVL y negated on the IMU clock, was placed +102 s off, refused as a DVL on a clock of its own, or
+    loaded with the clock not found (``clock: auto``); A-KIT pieces were loaded 6-92 s off. Not searched again where
+    the clock found keeps the stamps (under ``keeps_s``, default half a ping period) and the y fits at them as the y
+    check wants it (judged there), nor for a velocity kept in the frame declared for want of a body frame."""
+    from graphnav.calibration.clock import PEAK_EXCLUSION_S
+    from graphnav.calibration.dvl_scale import DVL_Y_MIN_EXPLAINED, DVL_Y_NEGATED
     from graphnav.io.dvl_frame import KEPT_AS_DECLARED
-    est = meta.get("clock_offsets", {}).get("dvl")
-    if est is None or est["confident"] or not on_the_imu_clock(dvl.t, imu.t) or meta.get(KEPT_AS_DECLARED):
-        return
-    try:
-        fit = dvl_y_negated_fit(judging_model(imu, dvl, config), imu, dvl, config)
-    except DataError:
-        return
-    if not fit.refused:
+    found = None if err is not None else meta.get("clock_offsets", {}).get("dvl")
+    if meta.get(KEPT_AS_DECLARED) or (err is None and found is None):  # too few pings: no clock searched
         return
     t, v = dvl_velocity_b(dvl, config)
-    found = _trial_estimate(search, imu, DvlData(t, *no_beams(len(t)), v @ DVL_Y_NEGATED.T, source=dvl.source),
-                            meta)
-    if found is None or not found["confident"]:
+    keeps_s = 0.5 * float(np.median(np.diff(t))) if keeps_s is None else keeps_s
+    if found is not None and found["confident"] and abs(found["offset_s"]) <= keeps_s:
+        at_stamps = _y_fit_at(imu, dvl, config, 0.0)
+        if at_stamps is None or not at_stamps.refused:
+            return
+    negated = _trial_estimate(search, imu, DvlData(t, *no_beams(len(t)), v @ DVL_Y_NEGATED.T, source=dvl.source),
+                              meta)
+    if negated is None or not _y_explains_better(negated, found, on_the_imu_clock(dvl.t, imu.t)):
         return
-    raise DataError(f"{_clock_not_found_said(est)} with the stamps on the IMU span; but with its y negated the DVL "
-                    f"finds its clock at {found['offset_s']:+.3f} s (the IMU explains {found['peak']:.2f} of its "
-                    f"velocity changes there, {found['second_peak']:.2f} at the next best offset): not the clock but "
-                    f"{fit.said(fixes)}", *_where(None, dvl, meta, fixes))
+    fit = _y_fit_at(imu, dvl, config, negated["offset_s"])
+    # where only the y negated finds a clock, at the stamps, the search's own bar of explaining stands for the fit's
+    # share explained: on 60 s A-KIT pieces its few windows explain 0.02-0.10 where the search explains 0.20-0.49 within
+    # 1.1 s of them. Not far off them: an A-KIT folder's velocity in knots read as m/s "found" +87 s at 0.08 explained
+    only_negated = (negated["confident"] and abs(negated["offset_s"]) <= PEAK_EXCLUSION_S
+                    and not (found is not None and found["confident"]))
+    if fit is None or not (fit.refused and (fit.explained >= DVL_Y_MIN_EXPLAINED or only_negated)):
+        return
+    read = (_clock_said(err, found) if err is not None or found["confident"] else
+            _clock_not_found_said(found) + (" with the stamps on the IMU span" if on_the_imu_clock(dvl.t, imu.t)
+                                            else ""))
+    finds = "finds its clock" if negated["confident"] else "fits the IMU best"
+    raise DataError(f"{read}; but with its y negated the DVL {finds} at {negated['offset_s']:+.3f} s (the IMU explains "
+                    f"{negated['peak']:.2f} of its velocity changes there, {negated['second_peak']:.2f} at the next "
+                    f"best offset): not the clock but {fit.said(fixes)}", *_where(err, dvl, meta, fixes)) from err
+
+
+def _y_fit_at(imu: ImuData, dvl: DvlData, config: SensorConfig, offset_s: float):
+    """The DVL y fit (:func:`~graphnav.calibration.dvl_scale.dvl_y_negated_fit`) with ``offset_s`` added to the DVL
+    stamps; None where the clock model cannot be built there."""
+    from graphnav.calibration.dvl_scale import dvl_y_negated_fit, judging_model
+    shifted = dataclasses.replace(dvl, t=dvl.t + offset_s)
+    try:
+        return dvl_y_negated_fit(judging_model(imu, shifted, config), imu, shifted, config)
+    except DataError:
+        return None
+
+
+def _y_explains_better(negated: dict, found: dict | None, inside: bool) -> bool:
+    """Whether the clock search's estimate with the DVL's y negated (``negated``) explains its velocity's changes better
+    than as read (``found``; None: the search found no offset at all): more, and at an offset nearer the stamps of a
+    DVL on the IMU span (``inside``) by :data:`~graphnav.calibration.clock.PEAK_EXCLUSION_S` (a DVL on the IMU span
+    seconds off its clock is likelier than minutes), or else by
+    :data:`~graphnav.calibration.clock.OFF_STAMPS_MIN_GAP` more at a clear peak. A noisy clean DVL 10 s late, found
+    there as read explaining 0.10, fitted best with its y negated 84.9 s off explaining 0.15 (a manoeuvre repeated):
+    under the clear peak, and further from the stamps."""
+    from graphnav.calibration.clock import MIN_PEAK, MIN_SSE_RATIO, OFF_STAMPS_MIN_GAP, PEAK_EXCLUSION_S
+    if found is None:
+        return True
+    if not negated["peak"] > found["peak"]:
+        return False
+    nearer = inside and abs(negated["offset_s"]) + PEAK_EXCLUSION_S < abs(found["offset_s"])
+    clear = negated["peak"] >= MIN_PEAK and negated["sharpness"] >= MIN_SSE_RATIO and "repeated_at_s" not in negated
+    return nearer or (clear and negated["peak"] - found["peak"] >= OFF_STAMPS_MIN_GAP)
 
 
 #: A DVL clock found explaining under this share of the velocity's changes is searched again with the velocity's y and
