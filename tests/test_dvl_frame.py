@@ -359,8 +359,8 @@ def test_an_rov_moving_sideways_in_waves_half_a_swing_off_its_own_clock_is_not_t
     assert any(n.startswith("its axes not taken for FLU: at its stamps it fits the IMU's accelerations")
                for n in got.meta["streams"]["dvl"]["notes"])
     np.testing.assert_allclose(got.dvl.v_b, v_b, atol=1e-8)
-    with pytest.raises(DataError, match=r"turned 180 deg about z against each other: .*\. Or the DVL velocity is in FLU "
-                                        r"axes \(ROS base_link\) read as FRD, its y and z negated, which fits .* "
+    with pytest.raises(DataError, match=r"turned 180 deg about z against each other: .*\. Or the DVL velocity is in "
+                                        r"FLU axes \(ROS base_link\) read as FRD, its y and z negated, which fits .* "
                                         r"than the half turn .*: if so, declare csv_columns.dvl.frame 'flu'$"):
         _load(_folder(tmp_path, leg, v_b * [1.0, -1.0, -1.0], {"clock": "auto"}, shift=15.0))
 
