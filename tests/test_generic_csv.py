@@ -626,6 +626,42 @@ def test_a_row_with_more_cells_than_the_header_is_refused_naming_its_line(sim, t
         load_mission(tmp_path, cfg, prepare=False)
 
 
+def test_cells_past_the_header_no_decimal_comma_explains_are_warned_not_refused(sim, tmp_path):
+    """A column a logger appends without naming it (a status word, a number with a decimal point) or a separator
+    inside a note cell makes rows wider than the header, but no decimal comma can explain the cells past it: the
+    named cells read as the clean file's, warned about with the lines and counted (refused before, as a decimal
+    comma). A decimal comma in the same file is still refused."""
+    cmap = _separate_files(tmp_path, sim)
+    cfg = _config(tmp_path, sim, cmap)
+    clean = load_mission(tmp_path, cfg, prepare=False)
+    imu, dvl = tmp_path / "imu.csv", tmp_path / "dvl.csv"
+    imu_text, dvl_rows = imu.read_text(), dvl.read_text().splitlines()
+    imu.write_text("\n".join(imu_text.splitlines()[:1] + [line + ",OK,23.5" for line in imu_text.splitlines()[1:]])
+                   + "\n")
+    dvl.write_text("\n".join([dvl_rows[0] + ",note"] + [row + (",lock, 4 beams" if i % 9 == 0 else ",lock")
+                                                        for i, row in enumerate(dvl_rows[1:])]) + "\n")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        m = load_mission(tmp_path, cfg, prepare=False)
+    np.testing.assert_array_equal(m.imu.omega_b, clean.imu.omega_b)
+    np.testing.assert_array_equal(m.imu.f_b, clean.imu.f_b)
+    np.testing.assert_array_equal(m.dvl.beams, clean.dvl.beams)
+    said = [str(w.message) for w in caught if "more cells than the header" in str(w.message)]
+    n_dvl = len(range(0, len(dvl_rows) - 1, 9))
+    assert any(s.startswith(f"{imu}: {len(clean.imu.t)} row(s) with more cells than the header's 7 (lines 2, 3, ")
+               for s in said), said
+    assert any(s.startswith(f"{dvl}: {n_dvl} row(s) with more cells than the header's 10 (lines 2, 11, 20, ")
+               for s in said), said
+    assert m.meta["streams"]["dvl"]["doubted"]["cells past the header not read"] == n_dvl
+    lines = [line + ",OK,23.5" for line in imu_text.splitlines()]
+    lines[0] = imu_text.splitlines()[0]
+    cells = lines[7].split(",")
+    lines[7] = ",".join(cells[:6] + [cells[6].replace(".", ",", 1)] + cells[7:])     # line 8: a decimal comma too
+    imu.write_text("\n".join(lines) + "\n")
+    with pytest.raises(DataError, match=r"1 such line\(s\): 8\. Likely a decimal comma"):
+        load_mission(tmp_path, cfg, prepare=False)
+
+
 def test_a_bad_depth_cell_refuses_its_row_and_dvl_warnings_name_lines(sim, tmp_path):
     """An empty, NaN or infinite depth cell refuses its row (warned with the line, counted) as for the other
     streams; it used to stop the load. A beam that is not a measurement is warned about at its file line (it

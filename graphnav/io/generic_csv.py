@@ -41,8 +41,10 @@ configuration file, the stream and the key, with the closest accepted one.
 
 Files: leading ``#`` comment lines are skipped; the separator is the one of ``,`` ``;`` tab the header line uses
 most, or a stream's ``delimiter``; in a ``;`` or tab separated file a number with one decimal comma (``0,25``) is
-read as ``0.25`` (each noted in the stream's notes); a row with more non-empty cells than the header (``0,25`` in a
-comma-separated file is two cells) is a DataError naming its lines, since its values would be read under other columns.
+read as ``0.25`` (each noted in the stream's notes); a row with more non-empty cells than the header that a decimal
+comma explains (``0,25`` in a comma-separated file is two cells) is a DataError naming its lines, since its values
+would be read under other columns; cells past the header no decimal comma explains (a column a logger appends without
+naming it, a separator inside a note) are not read, and their rows are warned about with their lines and counted.
 
 DVL: ``beams`` (along-beam velocities of the head) with optional ``valid`` flag columns (non-zero = valid;
 without them every finite beam is valid; RDI's -32768 / -32.768 flags are invalid), or only ``v_b`` (a DVL
@@ -85,6 +87,8 @@ from __future__ import annotations
 
 import csv
 import dataclasses
+import re
+from collections import Counter
 from pathlib import Path
 
 import numpy as np
@@ -107,7 +111,7 @@ from graphnav.core.screening import (
     with_position_spikes,
     zero_pings,
 )
-from graphnav.core.streams import add_note, count_read, count_refused
+from graphnav.core.streams import add_note, count_read, count_refused, say_doubted
 from graphnav.io.dvl_frame import columns_to_body
 from graphnav.io.pd0 import pd0_geometry, read_pd0
 from graphnav.io.units import (ANGLE_UNITS, DECLARED_UNITS, check_declared_time_span, check_stamp_bound,
@@ -134,6 +138,43 @@ def uses_column_map(path: str | Path, config: SensorConfig | None) -> bool:
 
 #: Separators a column-map file may use, detected from its header line: the most frequent there (a tie: the first).
 DELIMITERS = (",", ";", "\t")
+
+
+#: A number's integer part and the digits after a decimal comma, as a comma-separated row splits ``-0,25e-3``.
+_INTEGER_PART, _FRACTION_PART = re.compile(r"[+-]?\d+"), re.compile(r"\d+(?:[eE][+-]?\d+)?")
+
+
+def _is_number(cell: str) -> bool:
+    try:
+        float(cell)
+    except ValueError:
+        return not cell.strip()
+    return True
+
+
+def _zero_led_digits(row: list[str]) -> bool:
+    """True when a cell of digits led by a zero (``0245``: no number is written so) follows an integer part: the
+    digits after a decimal comma, whatever else the row holds."""
+    cells = [cell.strip() for cell in row]
+    return any(_INTEGER_PART.fullmatch(a) and len(b) > 1 and b[0] == "0" and b.isdigit()
+               for a, b in zip(cells, cells[1:]))
+
+
+def _split_numbers(row: list[str], numeric: list[bool]) -> bool:
+    """True when ``row`` (cells of a comma-separated row) needs and allows joining adjacent cells that are a number's
+    integer part and a decimal comma's digits to be one cell per column, with a number in every column ``numeric``
+    marks: the cells past the header could then be halves of numbers."""
+    cells = [cell.strip() for cell in row]
+    while len(cells) > len(numeric) and not cells[-1]:
+        cells.pop()
+    if len(cells) <= len(numeric):
+        return False
+    ends = {0}                                  # cells taken so far, after each column
+    for want_number in numeric:
+        ends = {i + k for i in ends for k in (1, 2) if i + k <= len(cells) and (
+            (k == 1 and (not want_number or _is_number(cells[i]))) or
+            (k == 2 and _INTEGER_PART.fullmatch(cells[i]) and _FRACTION_PART.fullmatch(cells[i + 1])))}
+    return len(cells) in ends
 
 
 class _Table:
@@ -167,21 +208,42 @@ class _Table:
 
     def _check_row_widths(self) -> None:
         """A row with more cells than the header (empty trailing cells aside) has its values under other columns'
-        names: a decimal comma in a comma-separated file (``0,25`` is two cells) or a header that lost a column.
-        Read by position they would be wrong numbers with no error, so the file is refused naming its lines."""
+        names when a decimal comma split a number in a comma-separated file (``0,25`` is two cells): read by position
+        they would be wrong numbers with no error, so such a file is refused naming its lines. A wider row no decimal
+        comma can explain (a text cell or a number with a decimal point past the header: a column a logger appends
+        without naming it, a separator inside a note) keeps its named cells; the lines are in :attr:`unnamed_lines`
+        (warned by the stream reading them)."""
         width, first = len(self.header), self.comments + 2
-        wide = [(i + first, len(row)) for i, row in enumerate(self.rows)
+        wide = [(i + first, len(row), row) for i, row in enumerate(self.rows)
                 if len(row) > width and any(cell.strip() for cell in row[width:])]
-        if not wide:
+        split = self._decimal_comma_lines(wide) if wide and self.delimiter == "," else []
+        self.unnamed_lines = np.array([n for n, _, _ in wide]) if wide and not split else np.array([], int)
+        if not split:
             return
-        line, cells = wide[0]
-        cause = (f"a decimal comma in a {self.delimiter!r}-separated file (write decimal points, or separate the "
-                 "cells by ';' or tab), or a column missing from the header") if self.delimiter == "," else \
-            "a column missing from the header, or a separator inside a cell"
-        shown = ", ".join(str(n) for n, _ in wide[:10]) + (f" (and {len(wide) - 10} more)" if len(wide) > 10 else "")
+        line, cells = split[0]
+        shown = ", ".join(str(n) for n, _ in split[:10]) + (f" (and {len(split) - 10} more)" if len(split) > 10 else "")
         raise DataError(f"{cells} cells where the header (line {self.comments + 1}) names {width}: the values would be "
-                        f"read under the wrong columns; {len(wide)} such line(s): {shown}. Likely {cause}",
-                        str(self.path), line, self.header[-1])
+                        f"read under the wrong columns; {len(split)} such line(s): {shown}. Likely a decimal comma in a "
+                        f"{self.delimiter!r}-separated file (write decimal points, or separate the cells by ';' or "
+                        "tab), or a column missing from the header", str(self.path), line, self.header[-1])
+
+    def _decimal_comma_lines(self, wide: list) -> list[tuple[int, int]]:
+        """(line, cells) of the ``wide`` rows (line, cells, row) a decimal comma can explain (:func:`_split_numbers`).
+        Where most of the first thousand cannot, the width most of those have is a logger's unnamed columns after
+        the header's: a row is then judged against that width (a decimal comma in it still makes it wider)."""
+        columns = self._numeric_columns()
+        explained = [_split_numbers(row, columns) for _, _, row in wide[:1000]]
+        if 2 * sum(explained) < len(explained):
+            appended = Counter(cells for (_, cells, _), e in zip(wide, explained) if not e).most_common(1)[0][0]
+            columns = columns + [False] * (appended - len(columns))
+        return [(line, cells) for line, cells, row in wide if _split_numbers(row, columns) or _zero_led_digits(row)]
+
+    def _numeric_columns(self) -> list[bool]:
+        """Which header columns hold numbers in most of the first thousand rows as wide as the header or narrower
+        (none with every row wider: their cells may be halves of numbers)."""
+        width = len(self.header)
+        rows = [row for row in self.rows[:1000] if row and len(row) <= width]
+        return [sum(_is_number(row[j]) for row in rows if j < len(row)) * 2 > len(rows) for j in range(width)]
 
     def notes(self) -> list[str]:
         """What reading the file took beyond a plain comma-separated table, for the stream's notes."""
@@ -256,6 +318,19 @@ def _in_mps(values: np.ndarray, path: Path, spec: dict, key: str, declared: str 
     return values
 
 
+def _say_unnamed_cells(table: _Table, lines: np.ndarray, stream: str, meta: dict) -> None:
+    """Warn about and count the rows of ``stream`` (file ``lines``) with cells past the header's columns that no
+    decimal comma explains (:meth:`_Table._check_row_widths`): their named cells are read, the rest is not."""
+    wide = lines[np.isin(lines, table.unnamed_lines)]
+    if wide.size:
+        shown = ", ".join(str(n) for n in wide[:10]) + (f" (and {wide.size - 10} more)" if wide.size > 10 else "")
+        say_doubted(meta, stream, str(table.path), f"{wide.size} row(s) with more cells than the header's "
+                    f"{len(table.header)} (lines {shown}): the cells past the header's last column "
+                    f"{table.header[-1]!r} are not read (unnamed columns a logger appended, or a separator inside a "
+                    "text cell); name them in the header if a column is missing from it",
+                    "cells past the header not read", int(wide.size), stacklevel=3)
+
+
 def _read(root: Path, data_file: Path | None, spec: dict, stream: str, groups: dict[str, int],
           time_unit: str | None, tables: dict, meta: dict, repair: bool = False,
           t_imu: np.ndarray | None = None, imu_rate_hz: float | None = None) -> tuple[np.ndarray, dict, Path]:
@@ -278,6 +353,7 @@ def _read(root: Path, data_file: Path | None, spec: dict, stream: str, groups: d
     values, lines = table.columns(flat, stream)
     for note in table.notes():
         add_note(meta, stream, f"{path}: {note}")
+    _say_unnamed_cells(table, lines, stream, meta)
     t = values[:, 0]
     bad = np.flatnonzero(~np.isfinite(t))
     if bad.size:
