@@ -141,7 +141,7 @@ def test_a_true_ned_copy_whose_attitude_columns_are_wrong_is_told_to_check_them_
 
 def _slow_in_current(seed, speed, current, duration=300.0, noise=0.01, sideways=False, ned=False, tilt_deg=(2.0, 3.0),
                      reverse_at=None, with_attitude=False, turn_deg_s=3.0, heading_deg=None, surge=0.05,
-                     surge_period_s=53.0, current_deg=None):
+                     surge_period_s=53.0, current_deg=None, phases=None):
     """A level-ish vehicle at ``speed`` m/s through the water, turning at up to 3 deg/s, in a steady ``current`` m/s:
     the IMU (100 Hz, samples the increments over each step) and the DVL's body-frame velocity over the ground (1 Hz,
     ``noise`` m/s), exact kinematics; ``sideways``: moving along its y (a crabbing ROV); ``tilt_deg``: its roll and
@@ -150,7 +150,7 @@ def _slow_in_current(seed, speed, current, duration=300.0, noise=0.01, sideways=
     ``with_attitude`` the vehicle's roll, pitch and heading at each ping (M,3, deg) last. ``turn_deg_s``: its turns'
     largest rate; ``heading_deg``: its heading at the start (default random); ``surge``: the amplitude of its speed's
     swing over ``surge_period_s`` s, m/s (0: a speed held); ``current_deg``: where the current flows, deg from north
-    (default random)."""
+    (default random); ``phases``: those of its roll, pitch and speed swings, rad (default random)."""
     from scipy.spatial.transform import Rotation
 
     from graphnav.core.rotations import euler_to_C_b_n
@@ -165,6 +165,7 @@ def _slow_in_current(seed, speed, current, duration=300.0, noise=0.01, sideways=
         sign = -sign if rng.random() < 0.6 else sign
         start += length + rng.uniform(20.0, 50.0)
     ph = rng.uniform(0.0, 2 * np.pi, 4)
+    ph[[0, 1, 3]] = ph[[0, 1, 3]] if phases is None else phases
     ph[2] = ph[2] if heading_deg is None else np.deg2rad(heading_deg)
     drift = ph[0] if current_deg is None else np.deg2rad(current_deg)
 

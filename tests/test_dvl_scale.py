@@ -180,6 +180,29 @@ def test_a_crabbing_vehicle_whose_dvl_y_is_negated_is_told_the_y_beside_the_turn
         load_mission(*_folder(tmp_path, (crabbing, t, None), v_b * [1.0, -1.0, 1.0]))
 
 
+def test_a_clean_dvl_a_wave_period_off_its_stamps_is_not_refused_as_y_negated(tmp_path):
+    """A vehicle crabbing 36 deg on a straight leg (1 m/s heading 40 deg in a 0.71 m/s westward current), its speed
+    swinging 0.15 m/s every 8 s, its clean body-frame DVL 8 s early on a clock to be found: the swing fits every 8 s,
+    so the clock search finds no clear offset (0.98 as read at +144 s), and at the stamps the y negated fitted 2.9x
+    better. With its y negated the search "found" a clock 136 s off explaining 0.98 too, and the correct log was refused
+    as a DVL y negated, the advice to negate its y. It loads, with the clock's warning."""
+    import dataclasses
+
+    from test_dvl_frame import _folder, _simulated, _slow_in_current
+
+    from graphnav.missions import load_mission
+    m, _, _ = _simulated(300.0)
+    t_imu, f_b, omega_b, t, v_b = _slow_in_current(11, 1.0, 0.7103, turn_deg_s=0.0, heading_deg=40.0, surge=0.15,
+                                                   surge_period_s=8.0, current_deg=-90.0,
+                                                   phases=(3.2159, 5.9719, 5.9605))
+    leg = dataclasses.replace(m, imu=dataclasses.replace(m.imu, t=t_imu, f_b=f_b, omega_b=omega_b))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        got = load_mission(*_folder(tmp_path, (leg, t, None), v_b, {"clock": "auto"}, shift=-8.0))
+    assert len(got.dvl.t) == len(t)
+    assert any("DVL clock offset not found" in str(w.message) for w in caught)
+
+
 def _akit_piece_log(akit_dir, tmp_path, trajectory: str, negated: list[int], late_s: float = 0.0, crop_s: float = 60.0):
     """The first ``crop_s`` s of an A-KIT trajectory as a column-map log of the files' own columns (the DVL on a clock
     to be found), the DVL velocity columns ``negated`` (0, 1, 2: X, Y, Z) and its stamps ``late_s`` s late: the

@@ -1469,8 +1469,8 @@ def _y_fit_at(imu: ImuData, dvl: DvlData, config: SensorConfig, offset_s: float)
 def _y_explains_better(negated: dict, found: dict | None, inside: bool) -> bool:
     """Whether the clock search's estimate with the DVL's y negated (``negated``) explains its velocity's changes better
     than as read (``found``; None: the search found no offset at all): more, and at an offset nearer the stamps of a
-    DVL on the IMU span (``inside``) by :data:`~graphnav.calibration.clock.PEAK_EXCLUSION_S` (a DVL on the IMU span
-    seconds off its clock is likelier than minutes), or else by
+    DVL on the IMU span (``inside``) by :data:`~graphnav.calibration.clock.PEAK_EXCLUSION_S` and by half (a DVL on the
+    IMU span seconds off its clock is likelier than minutes), or else by
     :data:`~graphnav.calibration.clock.OFF_STAMPS_MIN_GAP` more at a clear peak. A noisy clean DVL 10 s late, found
     there as read explaining 0.10, fitted best with its y negated 84.9 s off explaining 0.15 (a manoeuvre repeated):
     under the clear peak, and further from the stamps."""
@@ -1479,7 +1479,10 @@ def _y_explains_better(negated: dict, found: dict | None, inside: bool) -> bool:
         return True
     if not negated["peak"] > found["peak"]:
         return False
-    nearer = inside and abs(negated["offset_s"]) + PEAK_EXCLUSION_S < abs(found["offset_s"])
+    # nearer by half at least: a swing repeated every few seconds fits minutes off either way (a clean DVL 8 s early
+    # on a leg surging every 8 s: 0.975 as read +144 s off, 0.978 with its y negated +136 s off)
+    off_negated, off_found = abs(negated["offset_s"]), abs(found["offset_s"])
+    nearer = inside and off_negated + PEAK_EXCLUSION_S < off_found and off_negated <= 0.5 * off_found
     clear = negated["peak"] >= MIN_PEAK and negated["sharpness"] >= MIN_SSE_RATIO and "repeated_at_s" not in negated
     return nearer or (clear and negated["peak"] - found["peak"] >= OFF_STAMPS_MIN_GAP)
 
