@@ -271,6 +271,35 @@ def test_a_late_akit_piece_in_flu_axes_is_refused_where_only_its_y_and_z_negated
     assert -19.5 < m.config.dvl_time_offset_s < -18.5
 
 
+@pytest.mark.parametrize("seed, late_s", [(0, 8.0), (1, 0.0), (1, 8.0)])
+def test_flu_columns_of_a_slow_vehicle_in_a_current_are_refused_where_their_clock_explains_little(tmp_path, seed,
+                                                                                                  late_s):
+    """A vehicle at 0.4 m/s in a 0.3 m/s current, its DVL columns in FLU axes (y and z negated) and its stamps 0-8 s
+    late, on a clock to be found: the search as read settled 94-152 s off, explaining 0.19-0.28 there, and the log was
+    loaded there or refused as a DVL on a clock of its own (advising the ``clock: auto`` it has). With y and z negated
+    the search finds the clock clearly near the stamps, explaining 0.35-0.39, as much as the same log recorded in FRD
+    does and under the 0.5 the FLU trial asked for: refused naming the FLU axes; the FRD copy loads with its clock."""
+    import dataclasses
+
+    from test_dvl_frame import _folder, _simulated, _slow_in_current
+
+    from graphnav.core.errors import DataError
+    from graphnav.missions import load_mission
+    m, _, _ = _simulated(60.0)
+    t_imu, f_b, omega_b, t, v_b = _slow_in_current(seed, 0.4, 0.3)
+    leg = dataclasses.replace(m, imu=dataclasses.replace(m.imu, t=t_imu, f_b=f_b, omega_b=omega_b))
+    with pytest.raises(DataError, match=r"the DVL clock search finds the offset \+(9[4-9]|1[0-5]\d)\.\d+ s .* but with "
+                                        r"its y and z negated the DVL finds its clock at [-+][0-8]\.\d+ s .* explains "
+                                        r"0\.[12]\d, further from the stamps\): not the clock but FLU axes"):
+        load_mission(*_folder(tmp_path, (leg, t, None), v_b * [1.0, -1.0, -1.0], {"clock": "auto"}, shift=late_s))
+    clean = tmp_path / "clean"
+    clean.mkdir()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        got = load_mission(*_folder(clean, (leg, t, None), v_b, {"clock": "auto"}, shift=late_s))
+    assert abs(got.meta["clock_offsets"]["dvl"]["offset_s"] + late_s) < 1.0
+
+
 def test_a_long_level_log_whose_dvl_y_is_negated_is_not_left_to_the_flu_check_by_noise_variances_alone():
     """A level vehicle turning in a current for 1 h, its DVL y negated: the y negated fits the IMU 2.7x better than
     as read, and its y and z negated (FLU) 34 noise variances better still but 1.00x (its z barely changes): the y

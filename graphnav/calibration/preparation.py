@@ -1513,7 +1513,8 @@ def _flu_finds_the_clock(err: DataError | None, search, imu: ImuData, dvl: DvlDa
     or settles elsewhere.
     It is tried with the velocity's y and z negated (:data:`~graphnav.calibration.dvl_scale.DVL_FLU`); where that finds
     a clear clock explaining at least ``MIN_FLU_EXPLAINED`` and leaving :data:`FLU_TRIAL_RATIO` times less of the
-    velocity's changes unexplained than the search's best as read (each reading at its own best offset), a DataError
+    velocity's changes unexplained than the search's best as read (each reading at its own best offset), or
+    explaining more than that best at an offset nearer the stamps (:func:`_flu_nearer_the_stamps`), a DataError
     names the FLU axes, the offset and ``fixes["flu"]`` (and the y alone negated, ``fixes["y"]``, where that fits
     about as well there: a level vehicle's vertical velocity barely changes; where it fits clearly better, the y's own
     checks are left to say it). True FLU copies of A-KIT pieces 5-60 s late were
@@ -1526,26 +1527,41 @@ def _flu_finds_the_clock(err: DataError | None, search, imu: ImuData, dvl: DvlDa
         return
     t, v = dvl_velocity_b(dvl, config)
     flu = _trial_estimate(search, imu, DvlData(t, *no_beams(len(t)), v @ DVL_FLU.T, source=dvl.source), meta)
-    if flu is None or not _clock_clear(flu) or not flu["peak"] >= MIN_FLU_EXPLAINED:
+    if flu is None or not _clock_clear(flu):
         return
     ratio = (1.0 - read["peak"]) / max(1.0 - flu["peak"], 1e-9)
+    nearer = _flu_nearer_the_stamps(flu, read, on_the_imu_clock(dvl.t, imu.t))
+    if not (flu["peak"] >= MIN_FLU_EXPLAINED and ratio >= FLU_TRIAL_RATIO or nearer):
+        return
     try:
         there = dataclasses.replace(dvl, t=dvl.t + flu["offset_s"])
         y_ratio = y_negated_over_flu(judging_model(imu, there, config), imu, there, config)
     except DataError:
         return
-    if ratio < FLU_TRIAL_RATIO or y_ratio < 1.0 / DVL_Y_MIN_RATIO:
+    if y_ratio < 1.0 / DVL_Y_MIN_RATIO:
         return
     said = (err.message if err is not None else _clock_said(None, read) if read["confident"]
             else f"{_clock_not_found_said(read)} with the stamps on the IMU span")
+    as_read = (f"explains {read['peak']:.2f}, further from the stamps" if nearer and ratio < FLU_TRIAL_RATIO else
+               f"leaves {ratio:.3g}x as much of them unexplained, {FLU_TRIAL_RATIO:g}x needed")
     or_y = ("" if y_ratio >= DVL_Y_MIN_RATIO else f" (or its y alone negated, which fits about as well there, "
             f"{y_ratio:.2f}x as much left unexplained: if so, {fixes['y']})")
     raise DataError(f"{said}; but with its y and z negated the DVL finds its clock at {flu['offset_s']:+.3f} s (the "
                     f"IMU explains {flu['peak']:.2f} of its velocity changes there, {flu['second_peak']:.2f} at the "
-                    f"next best offset; as read its best, {read['offset_s']:+.3f} s, leaves {ratio:.3g}x as much of "
-                    f"them unexplained, {FLU_TRIAL_RATIO:g}x needed): not the clock but FLU axes (ROS base_link) read "
-                    f"as FRD? {fixes['flu']}{or_y}. The data are not read negated: with the axes declared, the clock "
-                    "search finds the offset itself", *_where(err, dvl, meta, fixes)) from err
+                    f"next best offset; as read its best, {read['offset_s']:+.3f} s, {as_read}): not the clock but FLU "
+                    f"axes (ROS base_link) read as FRD? {fixes['flu']}{or_y}. The data are not read negated: with the "
+                    "axes declared, the clock search finds the offset itself", *_where(err, dvl, meta, fixes)) from err
+
+
+def _flu_nearer_the_stamps(flu: dict, read: dict, inside: bool) -> bool:
+    """Whether the clock search's clear estimate with the DVL velocity's y and z negated (``flu``) explains more of its
+    changes than the search's best as read (``read``) at an offset nearer the stamps of a DVL on the IMU span
+    (``inside``) by :data:`~graphnav.calibration.clock.PEAK_EXCLUSION_S` (seconds off are likelier than minutes), as
+    :func:`_y_explains_better` asks of the y negated. A vehicle whose clean clock explains little (slow, in a current:
+    0.35-0.39) explains as little in FLU axes declared, under :data:`~graphnav.calibration.dvl_scale.MIN_FLU_EXPLAINED`:
+    its FLU columns 0-8 s late were put +94..+144 s off (loaded, or refused as on a clock of its own)."""
+    from graphnav.calibration.clock import PEAK_EXCLUSION_S
+    return inside and flu["peak"] > read["peak"] and abs(flu["offset_s"]) + PEAK_EXCLUSION_S < abs(read["offset_s"])
 
 
 def _clock_clear(est: dict) -> bool:
