@@ -1474,15 +1474,12 @@ def _y_explains_better(negated: dict, found: dict | None, inside: bool) -> bool:
     :data:`~graphnav.calibration.clock.OFF_STAMPS_MIN_GAP` more at a clear peak. A noisy clean DVL 10 s late, found
     there as read explaining 0.10, fitted best with its y negated 84.9 s off explaining 0.15 (a manoeuvre repeated):
     under the clear peak, and further from the stamps."""
-    from graphnav.calibration.clock import MIN_PEAK, MIN_SSE_RATIO, OFF_STAMPS_MIN_GAP, PEAK_EXCLUSION_S
+    from graphnav.calibration.clock import MIN_PEAK, MIN_SSE_RATIO, OFF_STAMPS_MIN_GAP
     if found is None:
         return True
     if not negated["peak"] > found["peak"]:
         return False
-    # nearer by half at least: a swing repeated every few seconds fits minutes off either way (a clean DVL 8 s early
-    # on a leg surging every 8 s: 0.975 as read +144 s off, 0.978 with its y negated +136 s off)
-    off_negated, off_found = abs(negated["offset_s"]), abs(found["offset_s"])
-    nearer = inside and off_negated + PEAK_EXCLUSION_S < off_found and off_negated <= 0.5 * off_found
+    nearer = _trial_nearer_the_stamps(negated, found, inside)
     clear = negated["peak"] >= MIN_PEAK and negated["sharpness"] >= MIN_SSE_RATIO and "repeated_at_s" not in negated
     return nearer or (clear and negated["peak"] - found["peak"] >= OFF_STAMPS_MIN_GAP)
 
@@ -1514,7 +1511,7 @@ def _flu_finds_the_clock(err: DataError | None, search, imu: ImuData, dvl: DvlDa
     It is tried with the velocity's y and z negated (:data:`~graphnav.calibration.dvl_scale.DVL_FLU`); where that finds
     a clear clock explaining at least ``MIN_FLU_EXPLAINED`` and leaving :data:`FLU_TRIAL_RATIO` times less of the
     velocity's changes unexplained than the search's best as read (each reading at its own best offset), or
-    explaining more than that best at an offset nearer the stamps (:func:`_flu_nearer_the_stamps`), a DataError
+    explaining more than that best at an offset nearer the stamps (:func:`_trial_nearer_the_stamps`), a DataError
     names the FLU axes, the offset and ``fixes["flu"]`` (and the y alone negated, ``fixes["y"]``, where that fits
     about as well there: a level vehicle's vertical velocity barely changes; where it fits clearly better, the y's own
     checks are left to say it). True FLU copies of A-KIT pieces 5-60 s late were
@@ -1530,7 +1527,7 @@ def _flu_finds_the_clock(err: DataError | None, search, imu: ImuData, dvl: DvlDa
     if flu is None or not _clock_clear(flu):
         return
     ratio = (1.0 - read["peak"]) / max(1.0 - flu["peak"], 1e-9)
-    nearer = _flu_nearer_the_stamps(flu, read, on_the_imu_clock(dvl.t, imu.t))
+    nearer = _trial_nearer_the_stamps(flu, read, on_the_imu_clock(dvl.t, imu.t))
     if not (flu["peak"] >= MIN_FLU_EXPLAINED and ratio >= FLU_TRIAL_RATIO or nearer):
         return
     try:
@@ -1553,15 +1550,20 @@ def _flu_finds_the_clock(err: DataError | None, search, imu: ImuData, dvl: DvlDa
                     "axes declared, the clock search finds the offset itself", *_where(err, dvl, meta, fixes)) from err
 
 
-def _flu_nearer_the_stamps(flu: dict, read: dict, inside: bool) -> bool:
-    """Whether the clock search's clear estimate with the DVL velocity's y and z negated (``flu``) explains more of its
-    changes than the search's best as read (``read``) at an offset nearer the stamps of a DVL on the IMU span
-    (``inside``) by :data:`~graphnav.calibration.clock.PEAK_EXCLUSION_S` (seconds off are likelier than minutes), as
-    :func:`_y_explains_better` asks of the y negated. A vehicle whose clean clock explains little (slow, in a current:
-    0.35-0.39) explains as little in FLU axes declared, under :data:`~graphnav.calibration.dvl_scale.MIN_FLU_EXPLAINED`:
-    its FLU columns 0-8 s late were put +94..+144 s off (loaded, or refused as on a clock of its own)."""
+def _trial_nearer_the_stamps(trial: dict, read: dict, inside: bool) -> bool:
+    """Whether a clock search's clear estimate with the DVL velocity's axes negated as a trial (``trial``) explains more
+    of its changes than the search's best as read (``read``) at an offset nearer the stamps of a DVL on the IMU span
+    (``inside``), by :data:`~graphnav.calibration.clock.PEAK_EXCLUSION_S` and by half at least (seconds off are
+    likelier than minutes). By half: a swing repeated every few seconds fits minutes off either way (a clean DVL 8 s
+    early on a leg surging every 8 s: 0.975 as read +144 s off, 0.978 with its y negated +136 s off). Asked of the y
+    negated (:func:`_y_explains_better`) and of FLU axes (:func:`_flu_finds_the_clock`): a vehicle whose clean clock
+    explains little (slow, in a current: 0.35-0.39) explains as little in FLU axes declared, under
+    :data:`~graphnav.calibration.dvl_scale.MIN_FLU_EXPLAINED`: its FLU columns 0-8 s late were put +94..+144 s off
+    (loaded, or refused as on a clock of its own)."""
     from graphnav.calibration.clock import PEAK_EXCLUSION_S
-    return inside and flu["peak"] > read["peak"] and abs(flu["offset_s"]) + PEAK_EXCLUSION_S < abs(read["offset_s"])
+    off_trial, off_read = abs(trial["offset_s"]), abs(read["offset_s"])
+    return (inside and trial["peak"] > read["peak"] and off_trial + PEAK_EXCLUSION_S < off_read
+            and off_trial <= 0.5 * off_read)
 
 
 def _clock_clear(est: dict) -> bool:
