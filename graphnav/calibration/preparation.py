@@ -404,9 +404,23 @@ def _prepare_akit(mission: Mission, meta: dict, facts: dict, imu_axis_signs, gt_
     meta["gt_point_b"] = imu_position_b.tolist()
     meta["time_offsets"] = {k: {"offset_s": e.offset_s, "sigma_s": e.sigma_s, "rms": e.rms}
                             for k, e in estimates.items()}
+    _dvl_offsets_on_written_stamps(meta)
     _note_akit(meta, cfg, dvl, gt, estimates, depth)
     meta["prepared"] = True
     return dataclasses.replace(mission, imu=imu, dvl=dvl, config=cfg, gt=gt, depth=depth, meta=meta)
+
+
+def _dvl_offsets_on_written_stamps(meta: dict) -> None:
+    """``meta["clock_offsets"]["dvl"]`` and ``meta["time_offsets"]["dvl"]`` (in place), kept on the DVL's stamps as
+    rescaled while the prepare step moves them, put on its stamps as written, as the configuration records the offset
+    (:func:`graphnav.io.loaders.offset_on_written_stamps`; the same for a file on the folder's clock): given back, the
+    offset meta keeps lands where the search put the pings (a DVL a day off, 0.0025 of the time its piece starts
+    into the published grid: 0.84 s for one from 330 s)."""
+    from graphnav.io.loaders import offset_on_written_stamps
+    for kept in (meta.get("clock_offsets", {}).get("dvl"), meta.get("time_offsets", {}).get("dvl")):
+        for key in ("offset_s", "coarse_offset_s", "repeated_at_s"):
+            if kept is not None and key in kept and np.isfinite(kept[key]):
+                kept[key] = offset_on_written_stamps(meta, "dvl", float(kept[key]))
 
 
 def _depth_where_the_data_put_it(meta: dict, depth: DepthData, given: float, data_s: float) -> None:
@@ -534,6 +548,7 @@ def _prepare_akit_without_gt(mission: Mission, meta: dict, facts: dict, cfg: Sen
     check_velocity_against_imu(imu, dvl, cfg, meta, imu_frame=_akit_imu_frame(cfg),
                                field="/".join(AKIT_COLUMNS["DVL"][1:4]), fixes=AKIT_DVL_FIXES)
     meta["time_offsets"] = {}
+    _dvl_offsets_on_written_stamps(meta)
     _note_akit(meta, cfg, dvl, None, {})
     meta["prepared"] = True
     return dataclasses.replace(mission, imu=imu, dvl=dvl, config=cfg, meta=meta)
@@ -689,9 +704,16 @@ def _coarse_dvl_clock(imu: ImuData, dvl: DvlData, meta: dict, cfg: SensorConfig)
     from graphnav.calibration.clock import align_stream_clocks
     velocity_only = DvlData(t_dvl, *no_beams(len(t_dvl)), dvl.v_b, source=dvl.source)
 
+    from graphnav.io.loaders import offset_on_written_stamps
+
+    def written(offset_s: float) -> float:
+        return offset_on_written_stamps(meta, "dvl", offset_s)
+
     def search(imu_: ImuData, meta_: dict, dvl_: DvlData = velocity_only, model=None) -> float:
+        # the offset said is on the stamps as written, as the configuration records it and a user gives it back
         aligned, _ = align_stream_clocks(imu_, dvl_, None, meta_, cfg, field="Time [s]",
-                                         what_to_do=_GIVE_OFFSET.format(kind="DVL", stream="dvl"), model=model)
+                                         what_to_do=_GIVE_OFFSET.format(kind="DVL", stream="dvl"), model=model,
+                                         written=written)
         return float(aligned.t[0] - dvl_.t[0])
     if np.mean((t_dvl >= t_imu[0]) & (t_dvl <= t_imu[-1])) >= 0.5:
         return _clock_beyond_the_fine_search(imu, velocity_only, cfg, meta, search), imu
