@@ -683,7 +683,7 @@ def _span(t: np.ndarray) -> str:
     return f"[{float(t[0]):.3f}, {float(t[-1]):.3f}] s"
 
 
-def align_gt_clock(imu, gt, meta: dict | None = None, *, field: str = "t", what_to_do: str = ""):
+def align_gt_clock(imu, gt, meta: dict | None = None, *, field: str = "t", what_to_do: str = "", written=None):
     """``(gt, offset_s)``: the ground truth put on the IMU clock when its span is off the IMU's
     (:func:`graphnav.core.timeseries.on_the_imu_clock`: a GT logged on a clock seconds or days away; a GT that only
     outlasts the IMU is on its clock), by the offset :func:`estimate_gt_clock_offset` finds;
@@ -694,6 +694,7 @@ def align_gt_clock(imu, gt, meta: dict | None = None, *, field: str = "t", what_
     Args:
         imu: :class:`~graphnav.core.mission.ImuData`. gt: :class:`~graphnav.core.mission.GroundTruth`.
         field: the stamp column named in the error. what_to_do: how to give the offset, for the error.
+        written: as :func:`align_stream_clocks`'s, for the offset the warning says (an A-KIT GT on a clock of its own).
 
     Raises:
         DataError: the GT does not overlap the IMU and no confident offset is found (naming the GT file, both
@@ -715,7 +716,8 @@ def align_gt_clock(imu, gt, meta: dict | None = None, *, field: str = "t", what_
         raise DataError(f"{where}, and the IMU's gyro explains the GT's attitude changes at no clear offset (best "
                         f"{est.peak:.2f} at {est.offset_s:+.3f} s, {est.second_peak:.2f} at the next best; a GT of "
                         f"another mission, or too little turning to align on); {todo}", gt.source, field=field)
-    text = f"GT clock offset {est.describe()} estimated from the data and added to the GT stamps"
+    said = est if written is None else dataclasses.replace(est, offset_s=written(est.offset_s))
+    text = f"GT clock offset {said.describe()} estimated from the data and added to the GT stamps"
     return add_gt_clock_offset(gt, est, meta, text), est.offset_s
 
 
