@@ -746,6 +746,81 @@ def test_a_given_dvl_offset_for_a_piece_a_day_off_lands_where_it_says(akit_dir, 
     assert searched.config.dvl_time_offset_s == pytest.approx(given, abs=0.1)
 
 
+@pytest.mark.parametrize("gt", [False, True])
+def test_the_dvl_offset_said_for_a_piece_a_day_off_is_the_one_recorded(akit_dir, tmp_path, gt):
+    """Trajectory10's 60 s from 330 s, its DVL stamps a day late, with and without its GT: the clock search's warning
+    and note, ``meta["clock_offsets"]`` and ``meta["time_offsets"]`` said the offset on the stamps as rescaled about
+    the file's own first stamp (-86399.767 s) while the configuration records it on the stamps as written
+    (-86398.937 s): two offsets "added" 0.83 s apart, and the warning's given back put the pings 0.84 s early. Every
+    offset said is now the one recorded, and given back lands where the search put the DVL."""
+    import re
+
+    from test_dvl_frame import _akit_crop_without_gt
+    moved = _akit_crop_without_gt(akit_dir / "Trajectory10", tmp_path / "moved", np.eye(3), 60.0, 330.0,
+                                  dvl_shift=86400.0, gt=gt)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        searched = load_akit(moved)
+    recorded = searched.config.dvl_time_offset_s
+    said = [float(m.group(1)) for w in caught for m in [re.search(r"DVL clock offset ([-+0-9.]+) s", str(w.message))]
+            if m]
+    noted = [float(m.group(1)) for n in searched.meta["streams"]["dvl"]["notes"]
+             for m in [re.search(r"DVL clock offset ([-+0-9.]+) s", n)] if m]
+    found = searched.meta["clock_offsets"]["dvl"]["offset_s"]
+    # with the GT the fine estimate adds its 0.01 s to the clock search's
+    assert said == noted and len(said) == 1 and said[0] == pytest.approx(found, abs=5e-4)
+    assert found == pytest.approx(recorded, abs=0.03 if gt else 1e-9)
+    if gt:
+        assert searched.meta["time_offsets"]["dvl"]["offset_s"] == pytest.approx(recorded, abs=1e-9)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        given_back = load_akit(moved, dvl_time_offset_s=found)
+    # the clock search's pings given back, less the fine estimate's share (0.0025 of it off: 3e-5 s)
+    np.testing.assert_allclose(given_back.dvl.t, searched.dvl.t + found - recorded, rtol=0, atol=1e-4)
+
+
+def test_a_given_gt_offset_for_a_piece_a_day_off_lands_where_it_says(akit_dir, tmp_path):
+    """Trajectory10's 60 s from 330 s, its GT stamps a day late, given the offset the same piece finds less the day (and
+    that 0.3 s off): rescaled about its own first stamp, the GT landed 0.83 s late (0.0025 x 330 s), and the data were
+    said at -86401.277 s, 1.13 s from the given offset rather than 0.3 s. ``gt_time_offset_s`` is for the stamps as
+    written, as ``dvl_time_offset_s`` is: the GT lands within 0.005 s of the piece's, the messages quote the given
+    number and the data's on its footing, and the offset the clock search records, given back, lands where it put the
+    GT."""
+    import json
+    import re
+
+    from graphnav.missions import load_mission
+    from test_dvl_frame import _akit_crop_without_gt
+    src = akit_dir / "Trajectory10"
+    on_time = _akit_crop_without_gt(src, tmp_path / "gt", np.eye(3), 60.0, 330.0, gt=True)
+    late = _shift_stamps(on_time, tmp_path / "late", {"GT": 86400.0})
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        truth = load_mission(on_time)
+        searched = load_mission(late)
+        (tmp_path / "searched.json").write_text(json.dumps({"gt_time_offset_s": searched.config.gt_time_offset_s}))
+        searched_given = load_mission(late, tmp_path / "searched.json")
+    given = truth.config.gt_time_offset_s - 86400.0
+    for off in (0.0, 0.3):
+        (tmp_path / "config.json").write_text(json.dumps({"gt_time_offset_s": given + off}))
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            got = load_mission(late, tmp_path / "config.json")
+        assert got.config.gt_time_offset_s == given + off
+        np.testing.assert_allclose(got.gt.t, truth.gt.t + off, rtol=0, atol=0.005)
+        said = [re.search(r"gt_time_offset_s = ([-+0-9.]+) s is given, but the data say ([-+0-9.]+) s",
+                          str(w.message)) for w in caught]
+        said = [(float(m.group(1)), float(m.group(2))) for m in said if m]
+        assert len(said) == (1 if off else 0)
+        if off:
+            assert said[0][0] == pytest.approx(given + off, abs=5e-4)
+            assert said[0][1] == pytest.approx(given, abs=0.005)
+    np.testing.assert_allclose(searched.gt.t, truth.gt.t, rtol=0, atol=0.005)
+    np.testing.assert_allclose(searched_given.gt.t, searched.gt.t, rtol=0, atol=1e-6)
+    assert searched.config.gt_time_offset_s == pytest.approx(given, abs=0.005)
+    assert searched.meta["time_offsets"]["gt"]["offset_s"] == pytest.approx(searched.config.gt_time_offset_s, abs=1e-9)
+
+
 def test_a_folder_trimmed_at_the_start_keeps_the_whole_folders_stamps(tmp_path):
     """All three files cut to t >= 30 s (a published folder trimmed at the start): every stamp is the whole
     folder's, so the DVL keeps its offset to the IMU. The published grids start at 0 whatever is cut from them;

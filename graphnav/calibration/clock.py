@@ -501,7 +501,7 @@ def _across_short_gaps(imu, dvl, config, min_overlap_s: float, inside: bool, mod
 
 def align_stream_clocks(imu, dvl, depth=None, meta: dict | None = None, config=None, *,
                         min_overlap_s: float = MIN_OVERLAP_S, field: str = "t",
-                        what_to_do: str = "give dvl_time_offset_s", model=None):
+                        what_to_do: str = "give dvl_time_offset_s", model=None, written=None):
     """Put the DVL (and a depth stream from the same instrument) on the IMU clock: ``(dvl, depth)``.
 
     The clock offset is estimated (:func:`estimate_dvl_clock_offset`) and applied when it is confident (for a DVL on
@@ -511,7 +511,10 @@ def align_stream_clocks(imu, dvl, depth=None, meta: dict | None = None, config=N
     with the DVL's source (a DVL's pressure sensor) moves with it. The decision is noted in ``meta["streams"]`` and,
     when applied, warned about; ``meta["clock_offsets"]["dvl"]`` keeps the estimate. ``field``: the stamp column
     named in an error; ``what_to_do``: how to give the offset, for the error; ``model``: the :func:`clock_model` of
-    ``imu``, ``dvl`` and ``config`` when built already (the stamps' score before the search shares it).
+    ``imu``, ``dvl`` and ``config`` when built already (the stamps' score before the search shares it); ``written``:
+    the offset (s) on the DVL's stamps as written for one (s) on ``dvl.t``, where they differ (an A-KIT file rescaled
+    about its own first stamp: :func:`graphnav.io.loaders.offset_on_written_stamps`), for the offset the warning and
+    notes say, which a user gives back as ``dvl_time_offset_s``; ``meta`` keeps the offset on ``dvl.t``.
 
     The search's windows are cut at steps between pings over
     :data:`~graphnav.core.dvl_kinematics.MAX_CLOCK_GAP_S` (:func:`clock_model`); where that finds no confident offset
@@ -549,11 +552,12 @@ def align_stream_clocks(imu, dvl, depth=None, meta: dict | None = None, config=N
                             f"clock offset cannot be found: {why}; {what_to_do}", dvl.source, field=field)
         add_note(meta, "dvl", f"clock offset not applied: {why}{best_off_its_stamps(est.to_dict())}")
         return dvl, depth
+    said = est if written is None else dataclasses.replace(est, offset_s=written(est.offset_s))
     if abs(est.offset_s) < 0.5 * period and inside:
-        add_note(meta, "dvl", f"clock offset {est.describe()} is under half a DVL period: left to the fine "
+        add_note(meta, "dvl", f"clock offset {said.describe()} is under half a DVL period: left to the fine "
                  "DVL time-offset calibration")
         return dvl, depth
-    text = f"DVL clock offset {est.describe()} estimated from the data and added to the DVL stamps"
+    text = f"DVL clock offset {said.describe()} estimated from the data and added to the DVL stamps"
     if not est.clear:
         others = "every other offset" + (f" within {NEAR_REACH_S:g} s of the stamps" if est.repeated else "")
         text += (f", though under the clear peak the search asks for ({MIN_PEAK:g} explained, residual ratio "
@@ -679,7 +683,7 @@ def _span(t: np.ndarray) -> str:
     return f"[{float(t[0]):.3f}, {float(t[-1]):.3f}] s"
 
 
-def align_gt_clock(imu, gt, meta: dict | None = None, *, field: str = "t", what_to_do: str = ""):
+def align_gt_clock(imu, gt, meta: dict | None = None, *, field: str = "t", what_to_do: str = "", written=None):
     """``(gt, offset_s)``: the ground truth put on the IMU clock when its span is off the IMU's
     (:func:`graphnav.core.timeseries.on_the_imu_clock`: a GT logged on a clock seconds or days away; a GT that only
     outlasts the IMU is on its clock), by the offset :func:`estimate_gt_clock_offset` finds;
@@ -690,6 +694,7 @@ def align_gt_clock(imu, gt, meta: dict | None = None, *, field: str = "t", what_
     Args:
         imu: :class:`~graphnav.core.mission.ImuData`. gt: :class:`~graphnav.core.mission.GroundTruth`.
         field: the stamp column named in the error. what_to_do: how to give the offset, for the error.
+        written: as :func:`align_stream_clocks`'s, for the offset the warning says (an A-KIT GT on a clock of its own).
 
     Raises:
         DataError: the GT does not overlap the IMU and no confident offset is found (naming the GT file, both
@@ -711,7 +716,8 @@ def align_gt_clock(imu, gt, meta: dict | None = None, *, field: str = "t", what_
         raise DataError(f"{where}, and the IMU's gyro explains the GT's attitude changes at no clear offset (best "
                         f"{est.peak:.2f} at {est.offset_s:+.3f} s, {est.second_peak:.2f} at the next best; a GT of "
                         f"another mission, or too little turning to align on); {todo}", gt.source, field=field)
-    text = f"GT clock offset {est.describe()} estimated from the data and added to the GT stamps"
+    said = est if written is None else dataclasses.replace(est, offset_s=written(est.offset_s))
+    text = f"GT clock offset {said.describe()} estimated from the data and added to the GT stamps"
     return add_gt_clock_offset(gt, est, meta, text), est.offset_s
 
 

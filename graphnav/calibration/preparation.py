@@ -281,9 +281,16 @@ def _prepare_akit(mission: Mission, meta: dict, facts: dict, imu_axis_signs, gt_
                  if _is_auto(value) and key in facts.get("given", {})}
     imu_axis_signs = _pick(imu_axis_signs, facts, "imu_axis_signs")
     gt_time_offset_s = _pick(gt_time_offset_s, facts, "gt_time_offset_s")
+
+    def gt_written(offset_s: float) -> float:
+        return offset_on_written_stamps(meta, "gt", offset_s)
+    if not _is_auto(gt_time_offset_s):
+        # given for the GT stamps as written, as the DVL's is (a GT rescaled about its own first stamp: another offset)
+        gt_time_offset_s = offset_on_rescaled_stamps(meta, "gt", float(gt_time_offset_s))
     gt_clock, used_as_given = 0.0, None
     if mission.gt is not None and "gt_time_offset_s" in from_file:
-        data_s = _given_reference_clock(mission.imu, mission.gt, float(gt_time_offset_s), meta, facts)[1]
+        data_s = _given_reference_clock(mission.imu, mission.gt, float(gt_time_offset_s), meta, facts,
+                                        said=gt_written)[1]
         if data_s is not None:
             # the axis check, the DVL's offset and the depth take the GT where the data put it; the GT handed on is
             # stamped with a given offset used as given
@@ -311,8 +318,9 @@ def _prepare_akit(mission: Mission, meta: dict, facts: dict, imu_axis_signs, gt_
         _judge_given_signs(mission, meta, facts, signs)
     if "gt_time_offset_s" in from_file and not _is_auto(gt_time_offset_s) and judged is not None \
             and judged.gt_offset is not None and on_the_imu_clock(mission.gt.t, mission.imu.t) \
-            and _judge_given_offset(meta, facts, "gt", gt_clock + float(gt_time_offset_s),
-                                    gt_clock + judged.gt_offset.offset_s, judged.gt_offset.sigma_s, mission):
+            and _judge_given_offset(meta, facts, "gt", gt_written(gt_clock + float(gt_time_offset_s)),
+                                    gt_written(gt_clock + judged.gt_offset.offset_s), judged.gt_offset.sigma_s,
+                                    mission):
         # doubted by the fine search as by the clock search: the DVL's offset and the depth take the GT where the data
         # put it (0 given on Trajectory13 moved the DVL 0.6 s), the GT handed on keeps the given offset
         used_as_given, gt_time_offset_s = gt_clock + float(gt_time_offset_s), AUTO
@@ -385,14 +393,14 @@ def _prepare_akit(mission: Mission, meta: dict, facts: dict, imu_axis_signs, gt_
         estimates["dvl"] = est
     if gt_clock and "gt" in estimates:
         estimates["gt"] = dataclasses.replace(estimates["gt"], offset_s=estimates["gt"].offset_s + gt_clock)
-    cfg.gt_time_offset_s = gt_clock + float(gt_time_offset_s)
+    cfg.gt_time_offset_s = gt_written(gt_clock + float(gt_time_offset_s))
     cfg.dvl_time_offset_s = offset_on_written_stamps(meta, "dvl", float(dvl_time_offset_s))
 
     t_gt = t_depth = g.t + float(gt_time_offset_s)          # g is on the IMU clock already (gt_clock added)
     if used_as_given is not None:
         estimates.pop("gt", None)
-        _depth_where_the_data_put_it(meta, mission.depth, used_as_given, cfg.gt_time_offset_s)
-        cfg.gt_time_offset_s = used_as_given
+        _depth_where_the_data_put_it(meta, mission.depth, gt_written(used_as_given), cfg.gt_time_offset_s)
+        cfg.gt_time_offset_s = gt_written(used_as_given)
         t_gt = g.t - gt_clock + used_as_given
     gt = GroundTruth(t_gt, g.p_n, g.v_n, g.C_b_n, g.origin_lla, source=g.source)
     if np.any(imu_position_b):
@@ -404,9 +412,24 @@ def _prepare_akit(mission: Mission, meta: dict, facts: dict, imu_axis_signs, gt_
     meta["gt_point_b"] = imu_position_b.tolist()
     meta["time_offsets"] = {k: {"offset_s": e.offset_s, "sigma_s": e.sigma_s, "rms": e.rms}
                             for k, e in estimates.items()}
+    _offsets_on_written_stamps(meta)
     _note_akit(meta, cfg, dvl, gt, estimates, depth)
     meta["prepared"] = True
     return dataclasses.replace(mission, imu=imu, dvl=dvl, config=cfg, gt=gt, depth=depth, meta=meta)
+
+
+def _offsets_on_written_stamps(meta: dict) -> None:
+    """The DVL's and GT's ``meta["clock_offsets"]`` and ``meta["time_offsets"]`` (in place), kept on their stamps as
+    rescaled while the prepare step moves them, put on their stamps as written, as the configuration records the
+    offsets (:func:`graphnav.io.loaders.offset_on_written_stamps`; the same for a file on the folder's clock): given
+    back, an offset meta keeps lands where the search put the samples (a file a day off, 0.0025 of the time its piece
+    starts into the published grid: 0.84 s for one from 330 s)."""
+    from graphnav.io.loaders import offset_on_written_stamps
+    for stream in ("dvl", "gt"):
+        for kept in (meta.get("clock_offsets", {}).get(stream), meta.get("time_offsets", {}).get(stream)):
+            for key in ("offset_s", "coarse_offset_s", "repeated_at_s"):
+                if kept is not None and key in kept and np.isfinite(kept[key]):
+                    kept[key] = offset_on_written_stamps(meta, stream, float(kept[key]))
 
 
 def _depth_where_the_data_put_it(meta: dict, depth: DepthData, given: float, data_s: float) -> None:
@@ -504,8 +527,10 @@ def _gt_clock(mission: Mission, meta: dict) -> tuple[GroundTruth, float]:
     if on_the_imu_clock(mission.gt.t, mission.imu.t):
         return _searched_reference_clock(mission.imu, mission.gt, meta, "GT")
     from graphnav.calibration.clock import align_gt_clock
+    from graphnav.io.loaders import offset_on_written_stamps
     return align_gt_clock(mission.imu, mission.gt, meta, field="Time [s]",
-                          what_to_do=_GIVE_OFFSET.format(kind="GT", stream="gt"))
+                          what_to_do=_GIVE_OFFSET.format(kind="GT", stream="gt"),
+                          written=lambda offset_s: offset_on_written_stamps(meta, "gt", offset_s))
 
 
 def _prepare_akit_without_gt(mission: Mission, meta: dict, facts: dict, cfg: SensorConfig, imu: ImuData,
@@ -534,6 +559,7 @@ def _prepare_akit_without_gt(mission: Mission, meta: dict, facts: dict, cfg: Sen
     check_velocity_against_imu(imu, dvl, cfg, meta, imu_frame=_akit_imu_frame(cfg),
                                field="/".join(AKIT_COLUMNS["DVL"][1:4]), fixes=AKIT_DVL_FIXES)
     meta["time_offsets"] = {}
+    _offsets_on_written_stamps(meta)
     _note_akit(meta, cfg, dvl, None, {})
     meta["prepared"] = True
     return dataclasses.replace(mission, imu=imu, dvl=dvl, config=cfg, meta=meta)
@@ -689,9 +715,16 @@ def _coarse_dvl_clock(imu: ImuData, dvl: DvlData, meta: dict, cfg: SensorConfig)
     from graphnav.calibration.clock import align_stream_clocks
     velocity_only = DvlData(t_dvl, *no_beams(len(t_dvl)), dvl.v_b, source=dvl.source)
 
+    from graphnav.io.loaders import offset_on_written_stamps
+
+    def written(offset_s: float) -> float:
+        return offset_on_written_stamps(meta, "dvl", offset_s)
+
     def search(imu_: ImuData, meta_: dict, dvl_: DvlData = velocity_only, model=None) -> float:
+        # the offset said is on the stamps as written, as the configuration records it and a user gives it back
         aligned, _ = align_stream_clocks(imu_, dvl_, None, meta_, cfg, field="Time [s]",
-                                         what_to_do=_GIVE_OFFSET.format(kind="DVL", stream="dvl"), model=model)
+                                         what_to_do=_GIVE_OFFSET.format(kind="DVL", stream="dvl"), model=model,
+                                         written=written)
         return float(aligned.t[0] - dvl_.t[0])
     if np.mean((t_dvl >= t_imu[0]) & (t_dvl <= t_imu[-1])) >= 0.5:
         return _clock_beyond_the_fine_search(imu, velocity_only, cfg, meta, search), imu
@@ -980,7 +1013,7 @@ def _searched_reference_clock(imu: ImuData, gt: GroundTruth, meta: dict, name: s
     return add_gt_clock_offset(gt, est, meta, text), est.offset_s
 
 
-def _given_reference_clock(imu: ImuData, gt: GroundTruth, given: float, meta: dict, facts: dict):
+def _given_reference_clock(imu: ImuData, gt: GroundTruth, given: float, meta: dict, facts: dict, said=None):
     """The clock search a reference without a given offset gets (:func:`_far_reference_clock`), run on its stamps with
     the configuration's ``gt_time_offset_s`` ``given`` (s) added, for an A-KIT folder's GT and a log's or bag's
     reference alike: ``(gt, None)`` when it finds no confident offset beyond the fine search's reach (the given offset
@@ -988,25 +1021,28 @@ def _given_reference_clock(imu: ImuData, gt: GroundTruth, given: float, meta: di
     data contradict. With the given offset the reference on the IMU span is used as given (:func:`_doubt_given`: its
     score doubted, and ``meta["gt_clock_doubted"]``: no alignment starts from it) and ``gt`` comes back as it is; off
     the span, where as given it would be lost, what the data give is added to ``gt``'s stamps instead (besides the
-    given offset), warned about naming the configuration, noted and its samples counted as doubted."""
+    given offset), warned about naming the configuration, noted and its samples counted as doubted. ``said``: the
+    offset (s) on the reference's stamps as written, as the messages quote it, for one on ``gt.t`` (an A-KIT GT
+    rescaled about its own first stamp: :func:`graphnav.io.loaders.offset_on_written_stamps`); None: the same."""
     key = "gt_time_offset_s"
+    said = said or float
     shifted = dataclasses.replace(gt, t=np.asarray(gt.t, float) + given)
     est = _far_reference_clock(imu, shifted)
     if est is None:
         return gt, None
     data_s = given + est.offset_s
-    says = (f"the angles the reference turns through match the gyro's at {data_s:+.3f} s (sigma {est.sigma_s:.3f} s; "
-            f"the clock search: the gyro explains {est.peak:.2f} of them there, {est.second_peak:.2f} at the next best "
-            "offset)")
+    says = (f"the angles the reference turns through match the gyro's at {said(data_s):+.3f} s (sigma "
+            f"{est.sigma_s:.3f} s; the clock search: the gyro explains {est.peak:.2f} of them there, "
+            f"{est.second_peak:.2f} at the next best offset)")
     if on_the_imu_clock(shifted.t, imu.t):
-        _doubt_given(meta, facts, key, "gt", len(gt.t), f"{given:+.3f} s", says)
+        _doubt_given(meta, facts, key, "gt", len(gt.t), f"{said(given):+.3f} s", says)
         meta["gt_clock_doubted"] = data_s
         return gt, data_s
     from graphnav.calibration.clock import add_gt_clock_offset
-    text = (f"{key} = {given:+.3f} s is given, but {says}; with it the reference stamps lie at [{shifted.t[0]:.3f}, "
-            f"{shifted.t[-1]:.3f}] s, sharing {overlap_text(shifted.t, imu.t)} with the IMU span [{imu.t[0]:.3f}, "
-            f"{imu.t[-1]:.3f}] s, and the reference would be left out: {data_s:+.3f} s is used instead; set {key} to "
-            "it if it is known, or to null (or remove the key) to let the data decide")
+    text = (f"{key} = {said(given):+.3f} s is given, but {says}; with it the reference stamps lie at "
+            f"[{shifted.t[0]:.3f}, {shifted.t[-1]:.3f}] s, sharing {overlap_text(shifted.t, imu.t)} with the IMU span "
+            f"[{imu.t[0]:.3f}, {imu.t[-1]:.3f}] s, and the reference would be left out: {said(data_s):+.3f} s is used "
+            f"instead; set {key} to it if it is known, or to null (or remove the key) to let the data decide")
     count_doubted(meta, "gt", f"{key} off the IMU span: the offset the data give used instead", len(gt.t))
     return add_gt_clock_offset(gt, est, meta, text, facts.get("given_by", {}).get(key, "the configuration")), data_s
 
