@@ -223,8 +223,8 @@ class _Table:
         line, cells = split[0]
         shown = ", ".join(str(n) for n, _ in split[:10]) + (f" (and {len(split) - 10} more)" if len(split) > 10 else "")
         raise DataError(f"{cells} cells where the header (line {self.comments + 1}) names {width}: the values would be "
-                        f"read under the wrong columns; {len(split)} such line(s): {shown}. Likely a decimal comma in a "
-                        f"{self.delimiter!r}-separated file (write decimal points, or separate the cells by ';' or "
+                        f"read under the wrong columns; {len(split)} such line(s): {shown}. Likely a decimal comma in "
+                        f"a {self.delimiter!r}-separated file (write decimal points, or separate the cells by ';' or "
                         "tab), or a column missing from the header", str(self.path), line, self.header[-1])
 
     def _decimal_comma_lines(self, wide: list) -> list[tuple[int, int]]:
