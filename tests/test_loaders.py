@@ -821,6 +821,32 @@ def test_a_given_gt_offset_for_a_piece_a_day_off_lands_where_it_says(akit_dir, t
     assert searched.meta["time_offsets"]["gt"]["offset_s"] == pytest.approx(searched.config.gt_time_offset_s, abs=1e-9)
 
 
+def test_a_given_dvl_offset_off_the_imu_span_is_not_judged_as_used(akit_dir, tmp_path):
+    """Trajectory10's 60 s from 330 s without GT, its DVL stamps a day late, configured with the offset less the day
+    300 s off: the stamps would leave the IMU span, so the clock search places the DVL (warned about). The search's
+    offset was then judged as the given one against itself: "dvl_time_offset_s = -86398.937 s is given, but the data
+    say -172798.703 s ... it is used as given", naming neither the number given nor the one used, and advising a
+    second day. The pings land where the search puts them without a configuration, and no such doubt is said."""
+    import json
+
+    from graphnav.missions import load_mission
+    from test_dvl_frame import _akit_crop_without_gt
+    moved = _akit_crop_without_gt(akit_dir / "Trajectory10", tmp_path / "moved", np.eye(3), 60.0, 330.0,
+                                  dvl_shift=86400.0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        searched = load_mission(moved)
+    (tmp_path / "config.json").write_text(json.dumps({"dvl_time_offset_s": searched.config.dvl_time_offset_s + 300.0}))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        got = load_mission(moved, tmp_path / "config.json")
+    text = [str(w.message) for w in caught]
+    assert any("on a clock of its own, whose offset is estimated from the data instead" in t for t in text)
+    assert not any("is given, but" in t for t in text), text
+    np.testing.assert_allclose(got.dvl.t, searched.dvl.t, rtol=0, atol=1e-6)
+    assert got.config.dvl_time_offset_s == pytest.approx(searched.config.dvl_time_offset_s, abs=1e-6)
+
+
 def test_a_folder_trimmed_at_the_start_keeps_the_whole_folders_stamps(tmp_path):
     """All three files cut to t >= 30 s (a published folder trimmed at the start): every stamp is the whole
     folder's, so the DVL keeps its offset to the IMU. The published grids start at 0 whatever is cut from them;

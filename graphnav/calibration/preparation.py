@@ -550,7 +550,8 @@ def _prepare_akit_without_gt(mission: Mission, meta: dict, facts: dict, cfg: Sen
     cfg.dvl_time_offset_s = offset_on_written_stamps(meta, "dvl", float(dvl_time_offset_s))
     cfg.gt_time_offset_s = 0.0
     dvl = dataclasses.replace(mission.dvl, t=mission.dvl.t + float(dvl_time_offset_s))
-    if judge:
+    if judge and not auto:
+        # a given offset left for the clock search (off the IMU span: warned about) is not the one used: not judged
         _judge_given_dvl_clock(dataclasses.replace(mission, imu=imu, config=cfg), dvl, dvl, meta, facts,
                                cfg.dvl_time_offset_s)
     # the checks a log or bag without reference gets: the velocity's unit, its turn and FLU axes, the IMU's turn
