@@ -1511,14 +1511,13 @@ def _y_explains_better(negated: dict, found: dict | None, inside: bool) -> bool:
     :data:`~graphnav.calibration.clock.OFF_STAMPS_MIN_GAP` more at a clear peak. A noisy clean DVL 10 s late, found
     there as read explaining 0.10, fitted best with its y negated 84.9 s off explaining 0.15 (a manoeuvre repeated):
     under the clear peak, and further from the stamps."""
-    from graphnav.calibration.clock import MIN_PEAK, MIN_SSE_RATIO, OFF_STAMPS_MIN_GAP
+    from graphnav.calibration.clock import OFF_STAMPS_MIN_GAP
     if found is None:
         return True
     if not negated["peak"] > found["peak"]:
         return False
     nearer = _trial_nearer_the_stamps(negated, found, inside)
-    clear = negated["peak"] >= MIN_PEAK and negated["sharpness"] >= MIN_SSE_RATIO and "repeated_at_s" not in negated
-    return nearer or (clear and negated["peak"] - found["peak"] >= OFF_STAMPS_MIN_GAP)
+    return nearer or (_clock_clear(negated) and negated["peak"] - found["peak"] >= OFF_STAMPS_MIN_GAP)
 
 
 #: A DVL clock found explaining under this share of the velocity's changes is searched again with the velocity's y and
