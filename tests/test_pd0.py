@@ -60,9 +60,10 @@ def _ensemble(number: int, when: dt.datetime, beams_mms: np.ndarray, pressure_dp
 
 
 def write_pd0(path, mission, coord_ex: int = 0, raw_mms: np.ndarray | None = None,
-              pressure_dpa: np.ndarray | None = None) -> None:
+              pressure_dpa: np.ndarray | None = None, t_s: np.ndarray | None = None) -> None:
     """The mission's DVL pings as PD0 ensembles (beam coordinates, mm/s, -32768 where invalid; or ``raw_mms``
-    (M,4) as the bottom-track velocities) with the depth as pressure (decapascal, gauge)."""
+    (M,4) as the bottom-track velocities) with the depth as pressure (decapascal, gauge), numbered from 1 and
+    stamped at the pings' times (or ``t_s``, s after :data:`START`)."""
     dvl = mission.dvl
     beams = np.where(dvl.valid, np.round(dvl.beams * 1000.0), -32768) if raw_mms is None else raw_mms
     depth = np.interp(dvl.t, mission.depth.t, mission.depth.depth)
@@ -70,7 +71,7 @@ def write_pd0(path, mission, coord_ex: int = 0, raw_mms: np.ndarray | None = Non
     if pressure_dpa is not None:
         p_dpa = pressure_dpa
     with open(path, "wb") as f:
-        for k, t in enumerate(dvl.t):
+        for k, t in enumerate(dvl.t if t_s is None else t_s):
             f.write(_ensemble(k + 1, START + dt.timedelta(seconds=float(t)), beams[k], int(p_dpa[k]), coord_ex))
 
 
@@ -79,6 +80,12 @@ def _load_written_pd0(sim, tmp_path, **written):
     configuration, loaded: (mission, the warnings)."""
     mission, root = sim
     write_pd0(tmp_path / "dvl.000", mission, **written)
+    return _load_pd0_beside_imu(sim, tmp_path)
+
+
+def _load_pd0_beside_imu(sim, tmp_path):
+    """``tmp_path / "dvl.000"`` loaded beside the module's IMU, GT and configuration: (mission, the warnings)."""
+    _, root = sim
     for name in ("imu.csv", "nav.csv", "config.json"):
         (tmp_path / name).write_bytes((root / name).read_bytes())
     with warnings.catch_warnings(record=True) as rec:
@@ -389,3 +396,119 @@ def test_a_depth_spike_in_a_pd0_file_is_named_by_its_ensemble(sim, tmp_path):
     said = [str(w.message) for w in rec if "depth sample(s) refused" in str(w.message)]
     assert said and f"at ensemble 16 (byte {15 * size}); they are not used" in said[0]
     assert m.meta["streams"]["depth"]["refused"] == {"depth spike": 1} and "depth_where" not in m.meta
+
+
+def _ensembles_of(path) -> list[bytes]:
+    from graphnav.io.pd0 import scan_pd0
+    raw = path.read_bytes()
+    return [raw[a:b] for a, b in scan_pd0(path).spans]
+
+
+def _quiet_read(path):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return read_pd0_log(path)
+
+
+@pytest.mark.parametrize("damage", ["two swapped", "halves joined in the wrong order"])
+def test_ensembles_stored_out_of_time_order_are_sorted_with_a_counted_warning(sim, tmp_path, damage):
+    """Ensembles stored out of time order (two swapped; the file's two halves joined the wrong way round) are put
+    in order by their own clock, with which their numbers agree: the pings of the clean file, a warning naming the
+    first misplaced ensemble and a count. They were read in file order without a word (time running backwards in
+    dead reckoning; with an IMU the file was refused naming a sample, not the ensemble)."""
+    sorted_key = "ensemble stored out of time order (sorted)"        # pd0.SORTED_ENSEMBLE
+    mission, root = sim
+    ens, n = _ensembles_of(root / "dvl.000"), len(mission.dvl.t)
+    size, t = len(ens[0]), mission.dvl.t
+    if damage == "two swapped":
+        parts, moved = ens[:10] + [ens[11], ens[10]] + ens[12:], 2
+        first = f"ensemble 11 (byte {11 * size}) is {t[11] - t[10]:.2f} s before ensemble 12 (byte {10 * size})"
+    else:
+        parts, moved = ens[40:] + ens[:40], n
+        first = f"ensemble 1 (byte {(n - 40) * size}) is {t[-1] - t[0]:.2f} s before ensemble {n} (byte " \
+                f"{(n - 41) * size})"
+    (tmp_path / "dvl.000").write_bytes(b"".join(parts))
+    clean = _quiet_read(root / "dvl.000")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        log = read_pd0_log(tmp_path / "dvl.000")
+    np.testing.assert_array_equal(log.t, clean.t)
+    said = [str(w.message) for w in caught if "out of time order" in str(w.message)]
+    assert said == [f"{tmp_path / 'dvl.000'}: {moved} ensemble(s) stored out of time order ({first} stored ahead "
+                    "of it) sorted by their own clock (the variable leader's), with which their ensemble numbers "
+                    "agree"]
+    np.testing.assert_array_equal(log.beams, clean.beams)
+    assert log.counts == {**clean.counts, sorted_key: moved}
+    m, _ = _load_pd0_beside_imu(sim, tmp_path)                 # with an IMU: loaded, not refused
+    assert f"{moved} {sorted_key}" in m.meta["streams"]["dvl"]["notes"]
+    (tmp_path / "clean").mkdir()
+    np.testing.assert_array_equal(m.dvl.t, _load_written_pd0(sim, tmp_path / "clean")[0].dvl.t)
+
+
+@pytest.mark.parametrize("damage", ["appended to itself", "copied with others between"])
+def test_ensembles_copied_anywhere_in_the_file_are_read_once(sim, tmp_path, damage):
+    """A file appended to itself, or an ensemble written again after two others (A B C A): the copies (byte for
+    byte the same as an earlier ensemble) are left out, counted and named by their ensemble numbers, and the pings
+    read are the clean file's. Both were read in file order without a word (the copies a second time, time
+    running backwards)."""
+    from graphnav.io.pd0 import REPEATED_ENSEMBLE
+    mission, root = sim
+    raw, ens, n = (root / "dvl.000").read_bytes(), _ensembles_of(root / "dvl.000"), len(mission.dvl.t)
+    size = len(ens[0])
+    if damage == "appended to itself":
+        damaged, copies, named = raw + raw, n, f"ensembles 1-{n} (bytes {len(raw)}-{len(raw) + (n - 1) * size})"
+    else:
+        damaged, copies, named = b"".join(ens[:13] + [ens[10]] + ens[13:]), 1, f"ensemble 11 (byte {13 * size})"
+    (tmp_path / "dvl.000").write_bytes(damaged)
+    clean = _quiet_read(root / "dvl.000")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        log = read_pd0_log(tmp_path / "dvl.000")
+    said = [str(w.message) for w in caught if "written twice" in str(w.message)]
+    assert said == [f"{tmp_path / 'dvl.000'}: {copies} ensemble(s) written twice (identical byte for byte to an "
+                    f"earlier one: a logger's retry, or a file appended to itself) left out: {named}; {n} read once"]
+    np.testing.assert_array_equal(log.t, clean.t)
+    np.testing.assert_array_equal(log.beams, clean.beams)
+    assert log.counts == {**clean.counts, REPEATED_ENSEMBLE: copies}
+
+
+def test_ensembles_that_cannot_be_put_in_time_order_are_refused_naming_them(sim, tmp_path):
+    """Where the clock and the ensemble numbers disagree, the file is refused naming the ensembles (it was read in
+    file order without a word): a clock set back mid-file while the numbers run on, two different ensembles at one
+    time, and two recordings overlapping in time whose numbers would interleave."""
+    from graphnav.core.errors import DataError
+    mission, root = sim
+    t, size = mission.dvl.t, len(_ensembles_of(root / "dvl.000")[0])
+    path = tmp_path / "dvl.000"
+    back = t - np.where(np.arange(len(t)) >= 20, 4.5, 0.0)
+    write_pd0(path, mission, t_s=back)
+    with pytest.raises(DataError, match=rf"field 'time': the ensembles cannot be put in time order: the clock runs "
+                                        rf"back {t[19] - back[20]:.2f} s from ensemble 20 \(byte {19 * size}\) to "
+                                        rf"ensemble 21 \(byte {20 * size}\) while the ensemble numbers run on"):
+        read_pd0_log(path)
+    write_pd0(path, mission, t_s=np.where(np.arange(len(t)) == 21, t[20], t))
+    with pytest.raises(DataError, match=rf"ensemble 21 \(byte {20 * size}\) and ensemble 22 \(byte {21 * size}\) "
+                                        "hold the same time"):
+        read_pd0_log(path)
+    write_pd0(tmp_path / "b.000", mission, t_s=t + 0.25)
+    path.write_bytes((root / "dvl.000").read_bytes() + (tmp_path / "b.000").read_bytes())
+    with pytest.raises(DataError, match="in time order the ensemble numbers would interleave"):
+        read_pd0_log(path)
+
+
+@pytest.mark.parametrize("count", [1, 2])
+def test_a_pd0_file_of_one_or_two_ensembles_is_refused_in_graphnav_words(sim, tmp_path, count):
+    """dolfyn refuses a file of one ensemble ("No header in this file") and of two (ZeroDivisionError); graphnav
+    says how many ensembles the file holds and how many it needs. Three read (two pings: dolfyn's last is kept
+    only when a header follows)."""
+    from graphnav.core.errors import DataError
+    _, root = sim
+    ens = _ensembles_of(root / "dvl.000")
+    path = tmp_path / "dvl.000"
+    path.write_bytes(b"".join(ens[:count]))
+    named = ", ".join(f"ensemble {k + 1}" for k in range(count))
+    with pytest.raises(DataError, match=rf"dvl.000: only {count} complete ensemble\(s\) with a valid checksum "
+                                        rf"\({named}\): too short to read; a PD0 file needs at least 3"):
+        read_pd0_log(path)
+    path.write_bytes(b"".join(ens[:3]))
+    assert len(_quiet_read(path).t) == 2

@@ -7,6 +7,7 @@ import contextlib
 import functools
 import io
 import json
+import re
 import shutil
 import warnings
 
@@ -256,6 +257,28 @@ def test_an_ensemble_written_twice_is_read_once_not_a_crash(pd0_dir, tmp_path):
     with pytest.warns(RuntimeWarning, match=r"3 ensemble\(s\) written twice \(identical byte for byte"):
         log = read_dvl(tmp_path / "twice.PD0")
     assert log.counts["ensemble written twice (copy left out)"] == 3
+    assert log.counts["read"] == clean.counts["read"] == 272
+    np.testing.assert_array_equal(log.t, clean.t)
+    np.testing.assert_array_equal(log.beams, clean.beams)
+
+
+@pytest.mark.parametrize("damage", ["copied with others between", "appended to itself"])
+def test_riverpro_copies_anywhere_are_read_once_not_refused_in_dolfyn_words(pd0_dir, tmp_path, damage):
+    """RiverPro_test01.PD0 with an ensemble copied after another (A B A) or appended to itself: dolfyn refused both
+    ("conflicting sizes for dimension 'time'", not naming the copy); graphnav leaves the copies out, names them by
+    their ensemble numbers and reads the clean file's pings."""
+    src = pd0_dir / "RiverPro_test01.PD0"
+    raw, spans = src.read_bytes(), pd0.scan_pd0(src).spans
+    a, b = spans[10]
+    damaged = raw[:spans[11][1]] + raw[a:b] + raw[spans[11][1]:] if damage.startswith("copied") else raw + raw
+    named = f"ensemble 408 (byte {spans[11][1]})" if damage.startswith("copied") else \
+        f"ensembles 398-670 (bytes {len(raw)}-{len(raw) + spans[-1][0]})"
+    (tmp_path / src.name).write_bytes(damaged)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        clean = read_dvl(src)
+    with pytest.warns(RuntimeWarning, match=re.escape(f"left out: {named}; 273 read once")):
+        log = read_dvl(tmp_path / src.name)
     assert log.counts["read"] == clean.counts["read"] == 272
     np.testing.assert_array_equal(log.t, clean.t)
     np.testing.assert_array_equal(log.beams, clean.beams)

@@ -15,7 +15,8 @@ import numpy as np
 #: Keys of :attr:`DvlLog.counts` that describe pings without refusing them (the rest are refusal reasons).
 COUNT_NOTES = ("read", "valid", "beams recovered", "ensembles in file", "bad pressure word", "depth out of range",
                "flagged beams", "3-beam solution", "bad checksum (ensemble left out)",
-               "ensemble written twice (copy left out)", "cut ensemble at the end of the file (left out)",
+               "ensemble written twice (copy left out)", "ensemble stored out of time order (sorted)",
+               "cut ensemble at the end of the file (left out)",
                "byte(s) before the first ensemble (skipped)")
 
 

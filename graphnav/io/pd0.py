@@ -37,7 +37,13 @@ then equals RDI's bottom-track beam velocity as recorded, and a convex head has 
   file that ends inside an ensemble (a copy or download cut short) has that ensemble left out, warned about and
   counted (``counts``, and a note of the DVL stream), as a corrupt ensemble (wrong checksum) is, and so are
   bytes before the first ensemble (a logger that started mid-ensemble or wrote a preamble) and an ensemble written
-  again byte for byte right after itself (a logger's retry: the same ping twice, which dolfyn cannot read).
+  again byte for byte anywhere after itself (a logger's retry, a file appended to itself: the same ping twice,
+  which dolfyn cannot read or reads as time running back).
+* ensembles stored out of time order are put in order by their own clock (the variable leader's RTC) when their
+  ensemble numbers agree, warned about and counted; a file whose clock and numbers disagree (a clock set back
+  mid-file, two different ensembles at one time, two recordings overlapping in time) is refused naming the
+  ensembles (:func:`_time_order` says why), and so is one of fewer than :data:`MIN_ENSEMBLES` ensembles, which
+  dolfyn cannot read.
 * depth from the pressure sensor (dbar -> m with the configured water density). A pressure word of
   0xFFFFFFFF (no sensor: 4.29e6 dbar) or a depth outside :data:`DEPTH_RANGE_M` is invalid, counted, warned. A
   pressure is positive down by its physics, so there is no convention to declare (``csv_columns.depth.positive`` is
@@ -54,6 +60,8 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import datetime
+import hashlib
 import io
 import re
 import struct
@@ -109,7 +117,12 @@ class Pd0Scan:
         cut_offset: the byte offset of that cut ensemble, 0 when none.
         leading_bytes: bytes before the first ensemble header (complete or corrupt), skipped: a logger that
             started mid-ensemble or wrote its own preamble; it is the first ensemble's byte offset.
-        repeated: checksummed ensembles identical byte for byte to the one before them (left out of ``spans``).
+        repeated: checksummed ensembles identical byte for byte to an earlier one (left out of ``spans``).
+        numbers: each kept ensemble's number (the variable leader's, as ``spans``; -1 without a variable leader).
+        copies: ``(number, byte offset)`` of each copy left out (``repeated`` of them), in file order.
+        moved: kept ensembles that the time order puts elsewhere than the file does (``spans`` is in time order).
+        order_note: where the file's order first runs back in time (for the warning), "" when it never does.
+        unplaced: why the ensembles cannot be put in time order (the file is refused), "" when they can.
     """
 
     ensembles: int
@@ -122,6 +135,11 @@ class Pd0Scan:
     cut_offset: int = 0
     leading_bytes: int = 0
     repeated: int = 0
+    numbers: list = dataclasses.field(default_factory=list, repr=False)
+    copies: list = dataclasses.field(default_factory=list, repr=False)
+    moved: int = 0
+    order_note: str = ""
+    unplaced: str = ""
 
 
 def _ensembles(raw: bytes, limit: int | None = None):
@@ -153,24 +171,100 @@ def _beam_matrix(raw: bytes, start: int) -> np.ndarray | None:
 
 
 def scan_pd0(path: str | Path) -> Pd0Scan:
-    """Count the complete, checksummed ensembles of a PD0 file and read its stored beam matrix."""
+    """Count the complete, checksummed ensembles of a PD0 file and read its stored beam matrix; leave out the copies
+    of an ensemble (byte for byte the same as an earlier one, anywhere in the file) and put the rest in time order
+    (:func:`_time_order`)."""
     raw = Path(path).read_bytes()
-    spans, bad, bad_end, first, repeated, end = [], 0, 0, None, 0, 0
+    spans, bad, bad_end, first, copies, end, seen = [], 0, 0, None, [], 0, set()
     for start, length, ok in _ensembles(raw):
         first = start if first is None else first
         if ok:
             end = start + length + 2
-        if ok and spans and raw[start:end] == raw[slice(*spans[-1])]:
-            repeated += 1
-        elif ok:
-            spans.append((start, end))
+            digest = hashlib.blake2b(memoryview(raw)[start:end], digest_size=16).digest()
+            if digest in seen:
+                copies.append((_leader(raw, start)[0], start))
+            else:
+                seen.add(digest)
+                spans.append((start, end))
         elif start >= bad_end:         # a 0x7F7F inside a corrupt ensemble is not another ensemble
             bad += 1
             bad_end = start + length + 2
     cut_offset, cut_bytes, cut_length = _cut_ensemble(raw, max(end, bad_end))
+    numbers, seconds = (np.array(x) for x in zip(*[_leader(raw, a) for a, _ in spans])) if spans else ([], [])
+    order, note, unplaced = _time_order(np.asarray(numbers, int), np.asarray(seconds, float), spans)
+    spans = [spans[i] for i in order]
     return Pd0Scan(len(spans), bad, len(raw) - end if spans else len(raw),
                    _beam_matrix(raw, spans[0][0]) if spans else None, spans, cut_bytes, cut_length, cut_offset,
-                   first or 0, repeated)
+                   first or 0, len(copies), [int(numbers[i]) for i in order], copies,
+                   int((order != np.arange(len(order))).sum()), note, unplaced)
+
+
+def _leader(raw: bytes, start: int) -> tuple[int, float]:
+    """(ensemble number, time in Unix s) of the ensemble at ``start`` as its variable leader (block 0x0080) gives
+    them: the number's low word (bytes 2-3) and high byte (byte 11), and the real-time clock (bytes 4-10: year of
+    the century, month, day, hour, minute, second, hundredths; years read as 20YY as dolfyn does); (-1, NaN)
+    without a variable leader, NaN for a clock that is no date."""
+    try:
+        offsets = struct.unpack_from(f"<{raw[start + 5]}H", raw, start + 6)
+        off = next(start + o for o in offsets if struct.unpack_from("<H", raw, start + o)[0] == 0x0080)
+        number = struct.unpack_from("<H", raw, off + 2)[0] + (raw[off + 11] << 16)
+        y, mo, d, h, mi, s, hundredths = raw[off + 4:off + 11]
+    except (StopIteration, struct.error, ValueError, IndexError):     # a block that runs past the file
+        return -1, float("nan")
+    try:
+        when = datetime.datetime(2000 + y if y < 100 else y, mo, d, h, mi, s, hundredths * 10000,
+                                 tzinfo=datetime.timezone.utc)
+    except ValueError:
+        return number, float("nan")
+    return number, when.timestamp()
+
+
+def _time_order(numbers: np.ndarray, t: np.ndarray, spans: list) -> tuple[np.ndarray, str, str]:
+    """The order (indexes into ``spans``) that puts the ensembles in time by their own clock ``t`` (Unix s), a note
+    of where the file first runs back in time, and why they cannot be ordered ("" when they can).
+
+    An ensemble stored out of place (a logger that wrote its buffer out of order, files of one instrument joined
+    in the wrong order) is moved to its time: its clock and its number both say where it belongs. The order is
+    refused when the two disagree, as an AUV engineer would not guess: the clock runs back while the numbers run
+    on (the clock was set back mid-file; sorting by the clock would interleave two stretches of pings, sorting
+    by number would trust a clock known to be wrong), two different ensembles carry one time (which is the
+    instrument's cannot be told), sorting would interleave the numbers of two recordings that overlap in time, or
+    a clock that is no date has to be placed. A file that never runs back in time keeps its order.
+    """
+    order = np.arange(len(t))
+    named = [f"ensemble {n} (byte {a})" for n, (a, _) in zip(numbers, spans)]
+    finite = np.isfinite(t)
+    known_t = np.sort(t[finite])
+    same = known_t[:-1][np.diff(known_t) == 0]
+    if len(same):
+        twins = np.flatnonzero(t == same[0])[:2]
+        return order, "", (f"{named[twins[0]]} and {named[twins[1]]} hold the same time ({_utc(t[twins[0]])}) but "
+                           "differ: which one the instrument recorded then cannot be told")
+    known = np.flatnonzero(finite)
+    back = known[:-1][np.diff(t[known]) < 0]
+    if not len(back):
+        return order, "", ""
+    nxt = {int(i): int(j) for i, j in zip(known[:-1], known[1:])}
+    i, j = int(back[0]), nxt[int(back[0])]
+    note = f"{named[j]} is {t[i] - t[j]:.2f} s before {named[i]} stored ahead of it"
+    if not finite.all():
+        bad = int(np.flatnonzero(~finite)[0])
+        return order, note, f"{note}, and {named[bad]} has a clock that is no date: it cannot be placed in time"
+    for i in back:
+        j = nxt[int(i)]
+        if numbers[j] >= numbers[i]:
+            return order, note, (f"the clock runs back {t[i] - t[j]:.2f} s from {named[i]} to {named[j]} while the "
+                                 "ensemble numbers run on: the instrument's clock was set back mid-file, so the "
+                                 "ensembles cannot be placed in time")
+    order = np.argsort(t, kind="stable")
+    if (np.diff(numbers[order]) <= 0).sum() > (np.diff(numbers) <= 0).sum():     # a number not after the one before
+        return np.arange(len(t)), note, (f"{note}, and in time order the ensemble numbers would interleave: two "
+                                         "recordings that overlap in time, which cannot be told apart")
+    return order, note, ""
+
+
+def _utc(t: float) -> str:
+    return datetime.datetime.fromtimestamp(t, datetime.timezone.utc).strftime("%Y-%m-%d %H:%M:%S.%f")[:-4]
 
 
 def _cut_ensemble(raw: bytes, end: int) -> tuple[int, int, int]:
@@ -187,14 +281,16 @@ def _cut_ensemble(raw: bytes, end: int) -> tuple[int, int, int]:
 
 
 def _read_good_ensembles(path: Path, scan: Pd0Scan):
-    """dolfyn's dataset of only the checksummed ensembles of ``path``, each once: dolfyn itself stops with an error
-    on a corrupt ensemble (it parses on past a failed checksum) and on one repeated (a time dimension of two lengths),
-    so those are cut out into a temporary copy."""
+    """dolfyn's dataset of only the checksummed ensembles of ``path``, each once and in time order: dolfyn itself
+    stops with an error on a corrupt ensemble (it parses on past a failed checksum) and on one repeated (a time
+    dimension of two lengths), and keeps ensembles out of order as they are, so those are cut out or moved into a
+    temporary copy. The ensemble the end of the file cuts is kept behind them, as in the file: dolfyn reads the
+    last whole ensemble only when another header follows it."""
     import tempfile
     raw = path.read_bytes()
     with tempfile.TemporaryDirectory(prefix="graphnav-pd0-") as tmp:
         clean = Path(tmp) / path.name
-        clean.write_bytes(b"".join(raw[a:b] for a, b in scan.spans))
+        clean.write_bytes(b"".join(raw[a:b] for a, b in scan.spans) + raw[scan.cut_offset:] * bool(scan.cut_bytes))
         return _read_rdi(clean, source=str(path))
 
 
@@ -424,8 +520,13 @@ def _instrument(ds, scan: Pd0Scan, matrix_source: str) -> dict:
 CUT_ENSEMBLE = "cut ensemble at the end of the file (left out)"
 #: The :attr:`DvlLog.counts` key of the bytes before the first ensemble (skipped; a number of bytes, not pings).
 LEADING_BYTES = "byte(s) before the first ensemble (skipped)"
-#: The :attr:`DvlLog.counts` key of the ensembles written again right after themselves (left out, not read).
+#: The :attr:`DvlLog.counts` key of the ensembles written again, byte for byte (left out, not read).
 REPEATED_ENSEMBLE = "ensemble written twice (copy left out)"
+#: The :attr:`DvlLog.counts` key of the ensembles stored out of time order (moved to their time, read).
+SORTED_ENSEMBLE = "ensemble stored out of time order (sorted)"
+#: Complete ensembles dolfyn needs to read a file: it keeps an ensemble only when another header follows it, and
+#: divides by the time between the first two it keeps (a ZeroDivisionError with fewer).
+MIN_ENSEMBLES = 3
 
 
 def _warn_cut(scan: Pd0Scan, source: str) -> None:
@@ -447,10 +548,11 @@ def _warn_leading(scan: Pd0Scan, source: str) -> None:
 
 
 def left_out_notes(counts: dict) -> list[str]:
-    """The notes of a DVL stream on the parts of the file that were left out before any ping was read (corrupt
-    ensembles, one cut by the end of the file, bytes before the first), from :attr:`DvlLog.counts`."""
-    return [f"{counts[key]} {key}" for key in ("bad checksum (ensemble left out)", REPEATED_ENSEMBLE, CUT_ENSEMBLE,
-                                               LEADING_BYTES) if counts.get(key)]
+    """The notes of a DVL stream on the parts of the file that were left out or moved before any ping was read
+    (corrupt ensembles, copies, ensembles out of time order, one cut by the end of the file, bytes before the
+    first), from :attr:`DvlLog.counts`."""
+    return [f"{counts[key]} {key}" for key in ("bad checksum (ensemble left out)", REPEATED_ENSEMBLE, SORTED_ENSEMBLE,
+                                               CUT_ENSEMBLE, LEADING_BYTES) if counts.get(key)]
 
 
 def _warn_counts(counts: dict, source: str) -> None:
@@ -515,16 +617,29 @@ def _rotated_pings(ds, vel: np.ndarray) -> _Pings:
 
 
 def _dataset(path: Path, scan: Pd0Scan):
-    """dolfyn's dataset of a PD0 file (corrupt ensembles left out, with a warning); refuses a file without
-    bottom track."""
+    """dolfyn's dataset of a PD0 file (corrupt ensembles and copies left out, ensembles out of order sorted, each
+    with a warning); refuses a file whose ensembles cannot be put in time order, one of fewer than
+    :data:`MIN_ENSEMBLES` ensembles and one without bottom track."""
     source = str(path)
     if scan.bad_checksum:
         warnings.warn(f"{source}: {scan.bad_checksum} ensemble(s) with a wrong checksum (corrupt) left out; "
                       f"{scan.ensembles} good ones read", RuntimeWarning, stacklevel=3)
     if scan.repeated:
-        warnings.warn(f"{source}: {scan.repeated} ensemble(s) written twice (identical byte for byte to the one "
-                      f"before: a logger's retry) left out; {scan.ensembles} read once", RuntimeWarning, stacklevel=3)
-    if scan.bad_checksum or scan.repeated:
+        warnings.warn(f"{source}: {scan.repeated} ensemble(s) written twice (identical byte for byte to an earlier "
+                      f"one: a logger's retry, or a file appended to itself) left out: {_copies_named(scan.copies)}; "
+                      f"{scan.ensembles} read once", RuntimeWarning, stacklevel=3)
+    if scan.unplaced:
+        raise DataError(f"the ensembles cannot be put in time order: {scan.unplaced}", source, field="time")
+    if scan.moved:
+        warnings.warn(f"{source}: {scan.moved} ensemble(s) stored out of time order ({scan.order_note}) sorted by "
+                      "their own clock (the variable leader's), with which their ensemble numbers agree",
+                      RuntimeWarning, stacklevel=3)
+    if scan.ensembles < MIN_ENSEMBLES:
+        raise DataError(f"only {scan.ensembles} complete ensemble(s) with a valid checksum"
+                        + (f" ({', '.join(f'ensemble {n}' for n in scan.numbers)})" if scan.ensembles else "")
+                        + f": too short to read; a PD0 file needs at least {MIN_ENSEMBLES} (dolfyn reads an "
+                        "ensemble only when another follows it, and its ping rate from two)", source)
+    if scan.bad_checksum or scan.repeated or scan.moved:
         ds = _read_good_ensembles(path, scan)
     else:
         ds = _read_rdi(path)
@@ -533,6 +648,19 @@ def _dataset(path: Path, scan: Pd0Scan):
                         "recording without bottom tracking gives no velocity over the seabed", source,
                         field="vel_bt")
     return ds
+
+
+def _copies_named(copies: list) -> str:
+    """The copies left out, ``(number, byte offset)`` in file order, as runs of consecutive ensemble numbers:
+    "ensembles 1-262 (bytes 380081-757200)" for a file appended to itself, the first four runs."""
+    runs: list[list] = []
+    for number, start in copies:
+        if runs and number == runs[-1][1] + 1:
+            runs[-1][1], runs[-1][3] = number, start
+        else:
+            runs.append([number, number, start, start])
+    said = [f"ensemble {a} (byte {s})" if a == b else f"ensembles {a}-{b} (bytes {s}-{e})" for a, b, s, e in runs[:4]]
+    return ", ".join(said) + (f" and {len(runs) - 4} more run(s)" if len(runs) > 4 else "")
 
 
 def read_pd0_log(path: str | Path, config: SensorConfig | None = None) -> DvlLog:
@@ -544,6 +672,7 @@ def read_pd0_log(path: str | Path, config: SensorConfig | None = None) -> DvlLog
     without beams), ``not read by dolfyn (last ensemble)``, ``flagged beams`` (beam values, beam files),
     ``bad pressure word`` and ``depth out of range`` (pressure readings), ``bad checksum (ensemble left out)``
     (corrupt ensembles, not part of ``read``), :data:`REPEATED_ENSEMBLE` (copies left out, not part of ``read``),
+    :data:`SORTED_ENSEMBLE` (ensembles moved to their time, read),
     :data:`CUT_ENSEMBLE` (1 when the file ends inside an ensemble, not
     part of ``read``), :data:`LEADING_BYTES` (bytes before the first ensemble, skipped). ``instrument`` holds the fixed
     leader (model, frequency, beam angle and pattern, orientation, EX bits, serial, firmware), where the beam
@@ -552,8 +681,9 @@ def read_pd0_log(path: str | Path, config: SensorConfig | None = None) -> DvlLog
     variation ``EV``, in ``instrument``, are applied by the instrument only to ship/earth outputs).
 
     Raises:
-        DataError: not PD0 by content, unreadable, no bottom-track block (an ADCP profile file), or a stored
-            beam matrix that is mirrored.
+        DataError: not PD0 by content, unreadable, fewer than :data:`MIN_ENSEMBLES` ensembles, ensembles that cannot
+            be put in time order, no bottom-track block (an ADCP profile file), or a stored beam matrix that is
+            mirrored.
     """
     path = Path(path)
     source = str(path)
@@ -578,6 +708,8 @@ def read_pd0_log(path: str | Path, config: SensorConfig | None = None) -> DvlLog
         counts["bad checksum (ensemble left out)"] = scan.bad_checksum
     if scan.repeated:
         counts[REPEATED_ENSEMBLE] = scan.repeated
+    if scan.moved:
+        counts[SORTED_ENSEMBLE] = scan.moved
     if scan.leading_bytes:
         counts[LEADING_BYTES] = scan.leading_bytes
         _warn_leading(scan, source)
@@ -608,10 +740,10 @@ def read_pd0_log(path: str | Path, config: SensorConfig | None = None) -> DvlLog
 
 
 def _ensemble_names(ds, scan: Pd0Scan) -> list[str]:
-    """Each ping's ensemble number (the variable leader's) and byte offset in the file, for messages: dolfyn's
-    pings are the checksummed ensembles in file order."""
-    numbers = np.asarray(ds["number"].values, int) if "number" in ds else np.arange(len(ds["time"]))
-    return [f"ensemble {n} (byte {start})" for n, (start, _) in zip(numbers, scan.spans)]
+    """Each ping's ensemble number (the variable leader's, as the scan read it: dolfyn counts the high byte as
+    65535) and byte offset in the file, for messages: dolfyn's pings are the scan's ensembles (``spans``, in time
+    order)."""
+    return [f"ensemble {n} (byte {start})" for n, (start, _) in zip(scan.numbers[:len(ds["time"])], scan.spans)]
 
 
 def read_pd0(path: str | Path, config: SensorConfig | None = None) -> tuple[DvlData, DepthData | None, dict]:
