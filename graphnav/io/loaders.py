@@ -662,35 +662,43 @@ AKIT_FAR_CLOCK_S = 86400.0
 
 def akit_stamp_origins(first: dict[str, float], last: dict[str, float]) -> dict[str, float]:
     """The stamp (s) each A-KIT file's stamps are rescaled about, by stream, from each file's first and last stamp
-    (s). A file that starts within the longest file's duration of the IMU's first stamp (of the earliest file's, without
-    an IMU) shares the folder's clock: its origin is :func:`akit_folder_origin`'s (0, where the published
-    ``linspace(0, T, N)`` grids start: a file cut short, or trimmed at the start, keeps its stamps on that grid, so the
-    rescale is about 0 for it too; the earliest of these files' first stamps when that lies more than
-    :data:`AKIT_FAR_CLOCK_S` from zero: the folder moved to a Unix clock, its grids start there). A file that starts
-    further from the IMU, before it or after it, than the longest file lasts is on a clock of its own (days away),
-    whose grid starts at its own first stamp. Anchored on the IMU, the clock every stream ends on: a DVL a day early
-    is the one on a clock of its own, not the IMU and the GT (rescaled about their first stamps, the DVL about 0,
-    its given offset was read 216 s off for a piece 330 s into the published grid)."""
+    (s). The files on the folder's clock (:func:`_on_the_folder_clock`: the IMU's, unless a file shares zero's) are
+    rescaled about :func:`akit_folder_origin`'s stamp (0, where the published ``linspace(0, T, N)`` grids start: a file
+    cut short, or trimmed at the start, keeps its stamps on that grid, so the rescale is about 0 for it too; the
+    earliest of these files' first stamps when that lies more than :data:`AKIT_FAR_CLOCK_S` from zero: the folder
+    moved to a Unix clock, its grids start there). A file on another clock (days away, before or after) is rescaled
+    about its own first stamp, and its offsets are converted for its stamps as written
+    (:func:`graphnav.core.streams.offset_on_written_stamps`)."""
     if not first:
         return {}
     common = akit_folder_origin(first, last)
-    shared = _sharing_the_imu_clock(first, last)
+    shared = _on_the_folder_clock(first, last)
     return {k: common if k in shared else t0 for k, t0 in first.items()}
 
 
-def _sharing_the_imu_clock(first: dict[str, float], last: dict[str, float]) -> set[str]:
-    """The streams whose files start within the longest file's duration (s) of the IMU file's first stamp (of the
-    earliest first stamp, without an IMU): those on the folder's clock (:func:`akit_stamp_origins`)."""
-    anchor = first.get("imu", min(first.values()))
+def _on_the_folder_clock(first: dict[str, float], last: dict[str, float]) -> set[str]:
+    """The streams whose files share the folder's clock, from each file's first and last stamp (s): those starting
+    within the longest file's duration of the IMU file's first stamp (the earliest, without an IMU), unless that lies
+    more than :data:`AKIT_FAR_CLOCK_S` from zero and another file's does not (an IMU moved a day: the others' grids
+    start at 0, their offsets were recorded as the published ones plus the day). Anchored on the earliest file, a DVL a
+    day early was taken for the folder's clock and the IMU and GT for clocks of their own: rescaled about 0 a day away,
+    the DVL moved 216 s, and its correct offset was refused (a piece 330 s into the published grid)."""
     longest = max(last[k] - first[k] for k in first)
-    return {k for k, t0 in first.items() if abs(t0 - anchor) <= longest}
+
+    def starting_near(anchor: float) -> set[str]:
+        return {k for k, t0 in first.items() if abs(t0 - anchor) <= longest}
+    shared = starting_near(first.get("imu", min(first.values())))
+    near_zero = [t0 for t0 in first.values() if abs(t0) <= AKIT_FAR_CLOCK_S]
+    if abs(min(first[k] for k in shared)) > AKIT_FAR_CLOCK_S and near_zero:
+        shared = starting_near(min(near_zero))
+    return shared
 
 
 def akit_folder_origin(first: dict[str, float], last: dict[str, float]) -> float:
     """The stamp (s) the files sharing an A-KIT folder's clock are rescaled about (:func:`akit_stamp_origins`), from
-    each file's first and last stamp (s): 0, or the earliest first stamp of the files on the IMU's clock when it lies
-    more than :data:`AKIT_FAR_CLOCK_S` from zero."""
-    folder = min(first[k] for k in _sharing_the_imu_clock(first, last))
+    each file's first and last stamp (s): 0, or the earliest first stamp of the files on the folder's clock when it
+    lies more than :data:`AKIT_FAR_CLOCK_S` from zero."""
+    folder = min(first[k] for k in _on_the_folder_clock(first, last))
     return folder if abs(folder) > AKIT_FAR_CLOCK_S else 0.0
 
 
