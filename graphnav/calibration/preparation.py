@@ -308,7 +308,7 @@ def _prepare_akit(mission: Mission, meta: dict, facts: dict, imu_axis_signs, gt_
     dvl_time_offset_s = _pick(dvl_time_offset_s, facts, "dvl_time_offset_s")
     if not _is_auto(dvl_time_offset_s):
         # given for the stamps as written: where the DVL is rescaled about its own first stamp, that is another offset
-        # (judged on the IMU span as written, it was 12.5 s off for a piece 5000 s into a published grid a day away)
+        # (judged on the IMU span before, its stamps were said 1.58 s late for a piece 630 s into the published grid)
         dvl_time_offset_s = offset_on_rescaled_stamps(meta, "dvl", float(dvl_time_offset_s))
     gt_time_offset_s = _off_the_imu_clock(mission.gt, gt_time_offset_s, mission.imu, "gt", meta)
     dvl_time_offset_s = _off_the_imu_clock(mission.dvl, dvl_time_offset_s, mission.imu, "dvl", meta)
