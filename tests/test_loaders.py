@@ -847,6 +847,143 @@ def test_a_given_dvl_offset_off_the_imu_span_is_not_judged_as_used(akit_dir, tmp
     assert got.config.dvl_time_offset_s == pytest.approx(searched.config.dvl_time_offset_s, abs=1e-6)
 
 
+@pytest.mark.parametrize("gt", [False, True])
+def test_a_dvl_a_day_early_is_on_a_clock_of_its_own(akit_dir, tmp_path, gt):
+    """Trajectory10's 60 s from 330 s, its DVL stamps a day early, with and without its GT. The earliest file (the
+    DVL) was taken for the folder's clock and the IMU and GT for clocks of their own: the DVL rescaled about 0 a day
+    away moved 216 s, its correct offset given (+86401.07 s) was refused as leaving it off the IMU span, and the
+    search's +86185 s recorded. The IMU's clock is the folder's: the DVL a day early is on a clock of its own, as one a
+    day late is. Found or given, its offset is the piece's plus the day and its pings land where the piece's do."""
+    import json
+
+    from graphnav.missions import load_mission
+    from test_dvl_frame import _akit_crop_without_gt
+    src = akit_dir / "Trajectory10"
+    on_time = _akit_crop_without_gt(src, tmp_path / "gt", np.eye(3), 60.0, 330.0, gt=True)
+    early = _akit_crop_without_gt(src, tmp_path / "early", np.eye(3), 60.0, 330.0, gt=gt, dvl_shift=-86400.0)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        truth = load_mission(on_time)
+        given = truth.config.dvl_time_offset_s + 86400.0
+        searched = load_mission(early)
+        (tmp_path / "config.json").write_text(json.dumps({"dvl_time_offset_s": given}))
+        got = load_mission(early, tmp_path / "config.json")
+    assert not any("on a clock of its own, whose offset is estimated" in str(w.message) for w in caught)
+    assert got.config.dvl_time_offset_s == given
+    np.testing.assert_allclose(got.dvl.t, truth.dvl.t, rtol=0, atol=0.01)
+    assert searched.config.dvl_time_offset_s == pytest.approx(given, abs=0.05)
+    np.testing.assert_allclose(searched.dvl.t, truth.dvl.t, rtol=0, atol=0.05)
+
+
+@pytest.mark.parametrize("shift", [86400.0, -86400.0])
+def test_a_gt_offset_passed_to_load_akit_places_a_gt_a_day_off(akit_dir, tmp_path, shift):
+    """Trajectory10's 60 s from 330 s, its GT stamps a day late or early, loaded with ``load_akit(gt_time_offset_s=)``
+    the piece's offset less the shift: a day late, the axis check refused the GT as sharing no interval with the IMU
+    (a configuration file's offset was placed first, an argument's not); a day early, the offset was read 216 s off. It
+    is placed before the axis check as a configuration's is, recorded as given, and the GT lands where the piece's
+    does."""
+    from test_dvl_frame import _akit_crop_without_gt
+    on_time = _akit_crop_without_gt(akit_dir / "Trajectory10", tmp_path / "gt", np.eye(3), 60.0, 330.0, gt=True)
+    moved = _shift_stamps(on_time, tmp_path / "moved", {"GT": shift})
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        truth = load_akit(on_time)
+        given = truth.config.gt_time_offset_s - shift
+        got = load_akit(moved, gt_time_offset_s=given)
+    assert got.config.gt_time_offset_s == given
+    np.testing.assert_allclose(got.gt.t, truth.gt.t, rtol=0, atol=0.005)
+    np.testing.assert_allclose(got.dvl.t, truth.dvl.t, rtol=0, atol=0.01)
+
+
+def test_the_y_trial_quotes_offsets_a_user_can_give_back(akit_dir, tmp_path):
+    """Trajectory10's 120 s from 330 s without GT, its DVL a day late and its y negated: the refusal said the clock
+    search found -86399.842 s where its own warning said -86399.013 s, and the y negated -86399.781 s, which given back
+    (the y fixed) put the pings 0.85 s early: offsets on the stamps rescaled about the file's own first stamp
+    (0.0025 x 330 s apart). Every number is on the stamps as written: the search's is its warning's, and the y
+    trial's, given back, lands within 0.05 s of the piece's pings."""
+    import json
+    import re
+
+    from graphnav.missions import load_mission
+    from test_dvl_frame import _akit_crop_without_gt
+    src = akit_dir / "Trajectory10"
+    on_time = _akit_crop_without_gt(src, tmp_path / "gt", np.eye(3), 120.0, 330.0, gt=True)
+    negated = _akit_crop_without_gt(src, tmp_path / "y", np.diag([1.0, -1.0, 1.0]), 120.0, 330.0, dvl_shift=86400.0)
+    fixed = _akit_crop_without_gt(src, tmp_path / "fixed", np.eye(3), 120.0, 330.0, dvl_shift=86400.0)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        truth = load_mission(on_time)
+        with pytest.raises(DataError, match="with its y negated the DVL finds its clock at") as err:
+            load_mission(negated)
+    warned = [float(m.group(1)) for w in caught
+              for m in [re.search(r"DVL clock offset ([-+0-9.]+) s", str(w.message))] if m]
+    found = float(re.search(r"the DVL clock search finds the offset ([-+0-9.]+) s", str(err.value)).group(1))
+    y = float(re.search(r"with its y negated the DVL finds its clock at ([-+0-9.]+) s", str(err.value)).group(1))
+    assert warned == [found]
+    (tmp_path / "config.json").write_text(json.dumps({"dvl_time_offset_s": y}))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        back = load_mission(fixed, tmp_path / "config.json")
+    np.testing.assert_allclose(back.dvl.t, truth.dvl.t, rtol=0, atol=0.05)
+
+
+@pytest.mark.parametrize("kind", ["GT", "DVL"])
+def test_a_given_offset_off_the_imu_span_is_quoted_and_judged_as_given(akit_dir, tmp_path, kind):
+    """Trajectory10's 60 s from 330 s, its GT or DVL a day late, given the piece's offset less the day plus 300 s
+    (off the IMU span: the data place the file). The warning quoted the GT's given offset on its rescaled stamps
+    (-86102.026 s for -86100.450 s) and judged the DVL's on them (its stamps said 1.58 s late: 0.0025 x 630 s). Both
+    are quoted as given, and the stamps said are where the given offset puts them."""
+    import re
+
+    from test_dvl_frame import _akit_crop_without_gt
+    on_time = _akit_crop_without_gt(akit_dir / "Trajectory10", tmp_path / "gt", np.eye(3), 60.0, 330.0, gt=True)
+    moved = _shift_stamps(on_time, tmp_path / "moved", {kind: 86400.0})
+    key = f"{kind.lower()}_time_offset_s"
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        truth = load_akit(on_time)
+        given = getattr(truth.config, key) - 86400.0 + 300.0
+        load_akit(moved, **{key: given})
+    said = [re.search(rf"the configured {key} ([-+0-9.]+) s puts the stamps at \[([0-9.]+),", str(w.message))
+            for w in caught]
+    said = [(float(m.group(1)), float(m.group(2))) for m in said if m]
+    assert len(said) == 1 and said[0][0] == pytest.approx(given, abs=5e-4)
+    # the 300 s are on the stamps as written, rescaled with them (the 1 Hz files' 400/399 grid)
+    first = getattr(truth, kind.lower()).t[0] + 300.0 * 0.9975
+    assert said[0][1] == pytest.approx(first, abs=0.01)
+
+
+@pytest.mark.parametrize("shift, added_by", [(86400.0, "found by the DVL clock search"),
+                                             (0.0, "(the vehicle's default)")])
+def test_the_dvl_offset_note_says_where_it_came_from(akit_dir, tmp_path, shift, added_by):
+    """Without GT the DVL's time offset note said "(given or the vehicle's default)" for the clock search's offset of
+    a DVL a day late too. It says which it is."""
+    from test_dvl_frame import _akit_crop_without_gt
+    folder = _akit_crop_without_gt(akit_dir / "Trajectory10", tmp_path, np.eye(3), 60.0, 330.0, dvl_shift=shift)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        m = load_akit(folder)
+    notes = [n for n in m.meta["streams"]["dvl"]["notes"] if n.startswith("time offset")]
+    assert len(notes) == 1 and added_by in notes[0], notes
+
+
+def test_an_akit_dvl_whose_stamps_jump_by_days_is_refused_naming_its_line(tmp_path):
+    """A DVL file whose stamps jump two days after its 50th row (a clock reset): refused naming "sample 50 of the
+    stream" and no line, after a warning of 172800 rows missing from its stamp grid. The error names the file's line
+    (52: the header and the 51st row) and column, and no grid is warned about."""
+    folder = make_akit_folder(tmp_path, n=1)
+    dvl = folder / "DVL_trajectory1.csv"
+    data = read_csv(dvl, AKIT_COLUMNS["DVL"])
+    data[50:, 0] += 2 * 86400.0
+    write_csv(dvl, AKIT_COLUMNS["DVL"], data.tolist())
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        with pytest.raises(DataError, match="time stamp jumps by") as err:
+            load_akit(folder)
+    assert (err.value.source, err.value.line, err.value.field) == (str(dvl), 52, "Time [s]")
+    assert not any("missing from the" in str(w.message) for w in caught)
+
+
 def test_a_folder_trimmed_at_the_start_keeps_the_whole_folders_stamps(tmp_path):
     """All three files cut to t >= 30 s (a published folder trimmed at the start): every stamp is the whole
     folder's, so the DVL keeps its offset to the IMU. The published grids start at 0 whatever is cut from them;

@@ -43,7 +43,7 @@ from graphnav.core.dvl_kinematics import (COARSE_MAX_WINDOWS, MAX_CLOCK_GAP_S, M
                                           dvl_window_model, gaps_said, offset_grid, search_overlap, still_velocity_said,
                                           with_enough_pings)
 from graphnav.core.errors import DataError
-from graphnav.core.streams import add_note, count_doubted, set_span
+from graphnav.core.streams import OFFSET_KEYS, add_note, count_doubted, offset_on_written_stamps, set_span
 from graphnav.core.timeseries import cumulative_integral, interp_rows, on_the_imu_clock, overlap_text
 
 #: When the DVL already overlaps the IMU, :func:`align_stream_clocks` searches offsets within +- this first, s
@@ -200,6 +200,13 @@ class ClockOffset:
         return (f"{self.offset_s:+.3f} s (sigma {self.sigma_s:.3f} s; IMU explains {self.peak:.2f} of "
                 f"{self.explains} there, {self.second_peak:.2f} at the next best offset{stamped}; overlap "
                 f"{self.overlap_s:.0f} s)")
+
+    def on_written_stamps(self, meta: dict, stream: str) -> ClockOffset:
+        """This estimate with its offsets (s) on the stamps of ``stream`` as written, which a user reads and gives back
+        as its time offset, where they differ from those searched (an A-KIT file on a clock of its own:
+        :func:`graphnav.core.streams.offset_on_written_stamps`)."""
+        return dataclasses.replace(self, **{k: offset_on_written_stamps(meta, stream, getattr(self, k))
+                                            for k in OFFSET_KEYS})
 
     def to_dict(self) -> dict:
         out = dataclasses.asdict(self)
@@ -490,18 +497,19 @@ def _across_short_gaps(imu, dvl, config, min_overlap_s: float, inside: bool, mod
         return est
     if not across.clear and across.n < ACROSS_MIN_WINDOWS * wider.window:
         add_note(meta, "dvl", f"windows across steps between pings up to {MAX_WINDOW_GAP_S:g} s put the DVL clock at "
-                 f"{across.describe()}, under the clear peak, on {across.n} pings (fewer than {ACROSS_MIN_WINDOWS} "
-                 "windows' worth): not taken")
+                 f"{across.on_written_stamps(meta, 'dvl').describe()}, under the clear peak, on {across.n} pings "
+                 f"(fewer than {ACROSS_MIN_WINDOWS} windows' worth): not taken")
         return est
+    best = offset_on_written_stamps(meta, "dvl", est.offset_s)
     add_note(meta, "dvl", f"clock offset found on windows across steps between pings up to {MAX_WINDOW_GAP_S:g} s: "
-             f"none confident on windows cut at steps over {MAX_CLOCK_GAP_S:g} s (best {est.offset_s:+.3f} s, "
+             f"none confident on windows cut at steps over {MAX_CLOCK_GAP_S:g} s (best {best:+.3f} s, "
              f"{est.peak:.2f} explained)")
     return across
 
 
 def align_stream_clocks(imu, dvl, depth=None, meta: dict | None = None, config=None, *,
                         min_overlap_s: float = MIN_OVERLAP_S, field: str = "t",
-                        what_to_do: str = "give dvl_time_offset_s", model=None, written=None):
+                        what_to_do: str = "give dvl_time_offset_s", model=None):
     """Put the DVL (and a depth stream from the same instrument) on the IMU clock: ``(dvl, depth)``.
 
     The clock offset is estimated (:func:`estimate_dvl_clock_offset`) and applied when it is confident (for a DVL on
@@ -511,10 +519,10 @@ def align_stream_clocks(imu, dvl, depth=None, meta: dict | None = None, config=N
     with the DVL's source (a DVL's pressure sensor) moves with it. The decision is noted in ``meta["streams"]`` and,
     when applied, warned about; ``meta["clock_offsets"]["dvl"]`` keeps the estimate. ``field``: the stamp column
     named in an error; ``what_to_do``: how to give the offset, for the error; ``model``: the :func:`clock_model` of
-    ``imu``, ``dvl`` and ``config`` when built already (the stamps' score before the search shares it); ``written``:
-    the offset (s) on the DVL's stamps as written for one (s) on ``dvl.t``, where they differ (an A-KIT file rescaled
-    about its own first stamp: :func:`graphnav.io.loaders.offset_on_written_stamps`), for the offset the warning and
-    notes say, which a user gives back as ``dvl_time_offset_s``; ``meta`` keeps the offset on ``dvl.t``.
+    ``imu``, ``dvl`` and ``config`` when built already (the stamps' score before the search shares it). The offsets
+    the warning, notes and errors say are on the DVL's stamps as written (:meth:`ClockOffset.on_written_stamps`: an
+    A-KIT file on a clock of its own), which a user gives back as ``dvl_time_offset_s``; ``meta`` keeps the offset on
+    ``dvl.t``.
 
     The search's windows are cut at steps between pings over
     :data:`~graphnav.core.dvl_kinematics.MAX_CLOCK_GAP_S` (:func:`clock_model`); where that finds no confident offset
@@ -541,6 +549,7 @@ def align_stream_clocks(imu, dvl, depth=None, meta: dict | None = None, config=N
         raise
     meta.setdefault("clock_offsets", {})["dvl"] = est.to_dict()
     period = float(np.median(np.diff(dvl.t))) if len(dvl.t) > 1 else 1.0
+    said = est.on_written_stamps(meta, "dvl")
     if not est.confident:
         why = still_velocity_said(est.peak, est.rms) or (
             f"the IMU's accelerations explain the DVL's velocity changes at no clear offset (best {est.peak:.2f}, "
@@ -550,9 +559,8 @@ def align_stream_clocks(imu, dvl, depth=None, meta: dict | None = None, config=N
             raise DataError(f"DVL stamps [{dvl.t[0]:.3f}, {dvl.t[-1]:.3f}] s lie outside the IMU span "
                             f"[{imu.t[0]:.3f}, {imu.t[-1]:.3f}] s (they share {overlap_text(dvl.t, imu.t)}) and the "
                             f"clock offset cannot be found: {why}; {what_to_do}", dvl.source, field=field)
-        add_note(meta, "dvl", f"clock offset not applied: {why}{best_off_its_stamps(est.to_dict())}")
+        add_note(meta, "dvl", f"clock offset not applied: {why}{best_off_its_stamps(said.to_dict())}")
         return dvl, depth
-    said = est if written is None else dataclasses.replace(est, offset_s=written(est.offset_s))
     if abs(est.offset_s) < 0.5 * period and inside:
         add_note(meta, "dvl", f"clock offset {said.describe()} is under half a DVL period: left to the fine "
                  "DVL time-offset calibration")
@@ -563,7 +571,7 @@ def align_stream_clocks(imu, dvl, depth=None, meta: dict | None = None, config=N
         text += (f", though under the clear peak the search asks for ({MIN_PEAK:g} explained, residual ratio "
                  f"{MIN_SSE_RATIO:g}; the DVL noise hides the vehicle's accelerations): the stamps as read explain "
                  f"{est.peak - est.stamped:.2f} less and {others} {est.peak - est.second_peak:.2f} less"
-                 f"{repeated_said(est.to_dict())}")
+                 f"{repeated_said(said.to_dict())}")
     if not est.sigma_s <= CLOCK_SIGMA_WARN_S:
         text += (f"; the data barely fix it (sigma over {CLOCK_SIGMA_WARN_S:g} s: a short log, or little "
                  "acceleration): give dvl_time_offset_s if it is known, or let graphnav calibrate fit it against a "
@@ -683,18 +691,18 @@ def _span(t: np.ndarray) -> str:
     return f"[{float(t[0]):.3f}, {float(t[-1]):.3f}] s"
 
 
-def align_gt_clock(imu, gt, meta: dict | None = None, *, field: str = "t", what_to_do: str = "", written=None):
+def align_gt_clock(imu, gt, meta: dict | None = None, *, field: str = "t", what_to_do: str = ""):
     """``(gt, offset_s)``: the ground truth put on the IMU clock when its span is off the IMU's
     (:func:`graphnav.core.timeseries.on_the_imu_clock`: a GT logged on a clock seconds or days away; a GT that only
     outlasts the IMU is on its clock), by the offset :func:`estimate_gt_clock_offset` finds;
     ``(gt, 0.0)`` unchanged otherwise (the fine GT time offset is the prepare step's). The offset applied is warned
     about (naming the GT file) and noted in ``meta["streams"]["gt"]``; ``meta["clock_offsets"]["gt"]`` keeps the
-    estimate.
+    estimate. The offsets the warning and errors say are on the GT's stamps as written, as
+    :func:`align_stream_clocks`'s are (an A-KIT GT on a clock of its own).
 
     Args:
         imu: :class:`~graphnav.core.mission.ImuData`. gt: :class:`~graphnav.core.mission.GroundTruth`.
         field: the stamp column named in the error. what_to_do: how to give the offset, for the error.
-        written: as :func:`align_stream_clocks`'s, for the offset the warning says (an A-KIT GT on a clock of its own).
 
     Raises:
         DataError: the GT does not overlap the IMU and no confident offset is found (naming the GT file, both
@@ -711,12 +719,12 @@ def align_gt_clock(imu, gt, meta: dict | None = None, *, field: str = "t", what_
     except DataError as exc:
         raise DataError(f"{where}, and its clock offset cannot be found: {exc.message}; {todo}",
                         gt.source, field=field) from None
+    said = est.on_written_stamps(meta, "gt")
     if not gt_clock_confident(est):
         meta.setdefault("clock_offsets", {})["gt"] = {**est.to_dict(), "confident": False}
         raise DataError(f"{where}, and the IMU's gyro explains the GT's attitude changes at no clear offset (best "
-                        f"{est.peak:.2f} at {est.offset_s:+.3f} s, {est.second_peak:.2f} at the next best; a GT of "
+                        f"{est.peak:.2f} at {said.offset_s:+.3f} s, {est.second_peak:.2f} at the next best; a GT of "
                         f"another mission, or too little turning to align on); {todo}", gt.source, field=field)
-    said = est if written is None else dataclasses.replace(est, offset_s=written(est.offset_s))
     text = f"GT clock offset {said.describe()} estimated from the data and added to the GT stamps"
     return add_gt_clock_offset(gt, est, meta, text), est.offset_s
 

@@ -80,7 +80,9 @@ from graphnav.core.dvl_kinematics import dvl_velocity_b, still_velocity_said
 from graphnav.core.earth import gravity_magnitude
 from graphnav.core.errors import ConfigError, DataError
 from graphnav.core.mission import IMU_RATE_TOLERANCE, DepthData, DvlData, GroundTruth, ImuData, Mission, no_beams
-from graphnav.core.streams import add_note, count_doubted, say_doubted, set_span, stream_entry
+from graphnav.core.streams import (add_note, clock_offsets_on_written_stamps, count_doubted,
+                                   offset_on_rescaled_stamps, offset_on_written_stamps, say_doubted, set_span,
+                                   stream_entry)
 from graphnav.core.timeseries import on_the_imu_clock, overlap_text
 from graphnav.io.dvl_frame import CARRIED, OFF_ITS_STAMPS
 from graphnav.io.units import judged_velocity_unit, unit_fix
@@ -275,7 +277,6 @@ def _pick(value, facts: dict, key: str):
 def _prepare_akit(mission: Mission, meta: dict, facts: dict, imu_axis_signs, gt_time_offset_s,
                   dvl_time_offset_s) -> Mission:
     from graphnav.calibration.reference import Reference, estimate_dvl_time_offset, estimate_gt_time_offset
-    from graphnav.io.loaders import offset_on_rescaled_stamps, offset_on_written_stamps
     from_file = {key for key, value in (("imu_axis_signs", imu_axis_signs), ("gt_time_offset_s", gt_time_offset_s),
                                         ("dvl_time_offset_s", dvl_time_offset_s))
                  if _is_auto(value) and key in facts.get("given", {})}
@@ -288,26 +289,29 @@ def _prepare_akit(mission: Mission, meta: dict, facts: dict, imu_axis_signs, gt_
         # given for the GT stamps as written, as the DVL's is (a GT rescaled about its own first stamp: another offset)
         gt_time_offset_s = offset_on_rescaled_stamps(meta, "gt", float(gt_time_offset_s))
     gt_clock, used_as_given = 0.0, None
-    if mission.gt is not None and "gt_time_offset_s" in from_file:
-        data_s = _given_reference_clock(mission.imu, mission.gt, float(gt_time_offset_s), meta, facts,
-                                        said=gt_written)[1]
+    if mission.gt is not None and not _is_auto(gt_time_offset_s):
+        # a configuration file's offset is checked by the clock search, an argument is the caller's; either is placed
+        # before the axis check when beyond its reach (an argument a day off had the axis check refuse the GT)
+        data_s = _given_reference_clock(mission.imu, mission.gt, float(gt_time_offset_s), meta,
+                                        facts)[1] if "gt_time_offset_s" in from_file else None
         if data_s is not None:
             # the axis check, the DVL's offset and the depth take the GT where the data put it; the GT handed on is
             # stamped with a given offset used as given
             used_as_given = float(gt_time_offset_s) if "gt_clock_doubted" in meta else None
             gt_time_offset_s, gt_clock = AUTO, data_s
         elif _beyond_the_fine_search(mission.gt, float(gt_time_offset_s), mission.imu):
-            # a given offset the data confirm, further than the axis check's +-2 s search finds the GT: it is placed
-            # first (16 s off, it turned Trajectory10's x axis and moved its DVL 0.35 s)
+            # a given offset (the data confirm one from a file) further than the axis check's +-2 s search finds the
+            # GT: it is placed first (16 s off, it turned Trajectory10's x axis and moved its DVL 0.35 s)
             gt_time_offset_s, gt_clock = 0.0, float(gt_time_offset_s)
         if gt_clock:
             mission = dataclasses.replace(mission, gt=dataclasses.replace(mission.gt, t=mission.gt.t + gt_clock))
-    gt_time_offset_s = _off_the_imu_clock(mission.gt, gt_time_offset_s, mission.imu, "gt", meta)
-    dvl_time_offset_s = _off_the_imu_clock(mission.dvl, _pick(dvl_time_offset_s, facts, "dvl_time_offset_s"),
-                                           mission.imu, "dvl", meta)
+    dvl_time_offset_s = _pick(dvl_time_offset_s, facts, "dvl_time_offset_s")
     if not _is_auto(dvl_time_offset_s):
         # given for the stamps as written: where the DVL is rescaled about its own first stamp, that is another offset
+        # (judged on the IMU span before, its stamps were said 1.58 s late for a piece 630 s into the published grid)
         dvl_time_offset_s = offset_on_rescaled_stamps(meta, "dvl", float(dvl_time_offset_s))
+    gt_time_offset_s = _off_the_imu_clock(mission.gt, gt_time_offset_s, mission.imu, "gt", meta)
+    dvl_time_offset_s = _off_the_imu_clock(mission.dvl, dvl_time_offset_s, mission.imu, "dvl", meta)
     if mission.gt is not None and _is_auto(gt_time_offset_s) and not gt_clock:
         # a GT on a clock of its own first gets its clock offset: the axis check and the fine estimate need it
         # on the IMU's (they search +-2 s)
@@ -421,15 +425,13 @@ def _prepare_akit(mission: Mission, meta: dict, facts: dict, imu_axis_signs, gt_
 def _offsets_on_written_stamps(meta: dict) -> None:
     """The DVL's and GT's ``meta["clock_offsets"]`` and ``meta["time_offsets"]`` (in place), kept on their stamps as
     rescaled while the prepare step moves them, put on their stamps as written, as the configuration records the
-    offsets (:func:`graphnav.io.loaders.offset_on_written_stamps`; the same for a file on the folder's clock): given
+    offsets (:func:`graphnav.core.streams.offset_on_written_stamps`; the same for a file on the folder's clock): given
     back, an offset meta keeps lands where the search put the samples (a file a day off, 0.0025 of the time its piece
     starts into the published grid: 0.84 s for one from 330 s)."""
-    from graphnav.io.loaders import offset_on_written_stamps
     for stream in ("dvl", "gt"):
         for kept in (meta.get("clock_offsets", {}).get(stream), meta.get("time_offsets", {}).get(stream)):
-            for key in ("offset_s", "coarse_offset_s", "repeated_at_s"):
-                if kept is not None and key in kept and np.isfinite(kept[key]):
-                    kept[key] = offset_on_written_stamps(meta, stream, float(kept[key]))
+            if kept is not None:
+                kept.update(clock_offsets_on_written_stamps(meta, stream, kept))
 
 
 def _depth_where_the_data_put_it(meta: dict, depth: DepthData, given: float, data_s: float) -> None:
@@ -504,13 +506,15 @@ def _off_the_imu_clock(data, offset, imu: ImuData, stream: str, meta: dict):
     note in ``meta`` when a given offset leaves its stamps off the IMU clock
     (:func:`graphnav.core.timeseries.on_the_imu_clock`): the file is on a clock of its own (a folder whose stamps were
     moved after graphnav wrote it with its configuration), and the clock check finds it instead of every sample being
-    refused. A file that only outlasts the IMU keeps the offset. None ``data``: ``offset``."""
+    refused. A file that only outlasts the IMU keeps the offset. None ``data``: ``offset``. The warning quotes the
+    offset on the file's stamps as written, as it was given (:func:`graphnav.core.streams.offset_on_written_stamps`)."""
     if data is None or _is_auto(offset) or not len(data.t):
         return offset
     t = np.asarray(data.t, float) + float(offset)
     if on_the_imu_clock(t, imu.t):
         return offset
-    text = (f"the configured {stream}_time_offset_s {float(offset):+.3f} s puts the stamps at [{t[0]:.3f}, "
+    given = offset_on_written_stamps(meta, stream, float(offset))
+    text = (f"the configured {stream}_time_offset_s {given:+.3f} s puts the stamps at [{t[0]:.3f}, "
             f"{t[-1]:.3f}] s, sharing {overlap_text(t, imu.t)} with the IMU "
             f"span [{imu.t[0]:.3f}, {imu.t[-1]:.3f}] s: the file is on a clock of its own, whose offset is estimated "
             "from the data instead")
@@ -527,10 +531,8 @@ def _gt_clock(mission: Mission, meta: dict) -> tuple[GroundTruth, float]:
     if on_the_imu_clock(mission.gt.t, mission.imu.t):
         return _searched_reference_clock(mission.imu, mission.gt, meta, "GT")
     from graphnav.calibration.clock import align_gt_clock
-    from graphnav.io.loaders import offset_on_written_stamps
     return align_gt_clock(mission.imu, mission.gt, meta, field="Time [s]",
-                          what_to_do=_GIVE_OFFSET.format(kind="GT", stream="gt"),
-                          written=lambda offset_s: offset_on_written_stamps(meta, "gt", offset_s))
+                          what_to_do=_GIVE_OFFSET.format(kind="GT", stream="gt"))
 
 
 def _prepare_akit_without_gt(mission: Mission, meta: dict, facts: dict, cfg: SensorConfig, imu: ImuData,
@@ -540,12 +542,15 @@ def _prepare_akit_without_gt(mission: Mission, meta: dict, facts: dict, cfg: Sen
     :data:`~graphnav.io.loaders.AKIT_DVL_TIME_OFFSET_S` unless the DVL clock fit puts the DVL clearly off it
     (:func:`_akit_dvl_offset_without_gt`; the fine estimate needs the missing GT). A given offset a configuration file
     set (``judge``) is judged against the DVL clock fit, as a log's is (:func:`_judge_given_dvl_clock`)."""
-    from graphnav.io.loaders import offset_on_written_stamps
-    auto = _is_auto(dvl_time_offset_s)
+    from graphnav.io.loaders import AKIT_DVL_TIME_OFFSET_S
+    auto, added_by = _is_auto(dvl_time_offset_s), "given"
     if auto and coarse:
-        dvl_time_offset_s = coarse        # the clock estimate is all there is without GT (no fine reference)
+        # the clock estimate is all there is without GT (no fine reference)
+        dvl_time_offset_s, added_by = coarse, "found by the DVL clock search; no GT file to refine it"
     if _is_auto(dvl_time_offset_s):
         dvl_time_offset_s = _akit_dvl_offset_without_gt(mission.dvl, imu, cfg, meta)
+        added_by = ("the vehicle's default" if dvl_time_offset_s == AKIT_DVL_TIME_OFFSET_S else
+                    "the DVL clock fit; no GT file")
     # recorded for the stamps as written, as a given one is meant (the stamps are moved by it as rescaled)
     cfg.dvl_time_offset_s = offset_on_written_stamps(meta, "dvl", float(dvl_time_offset_s))
     cfg.gt_time_offset_s = 0.0
@@ -561,7 +566,7 @@ def _prepare_akit_without_gt(mission: Mission, meta: dict, facts: dict, cfg: Sen
                                field="/".join(AKIT_COLUMNS["DVL"][1:4]), fixes=AKIT_DVL_FIXES)
     meta["time_offsets"] = {}
     _offsets_on_written_stamps(meta)
-    _note_akit(meta, cfg, dvl, None, {})
+    _note_akit(meta, cfg, dvl, None, {}, added_by={"dvl": added_by})
     meta["prepared"] = True
     return dataclasses.replace(mission, imu=imu, dvl=dvl, config=cfg, meta=meta)
 
@@ -716,16 +721,9 @@ def _coarse_dvl_clock(imu: ImuData, dvl: DvlData, meta: dict, cfg: SensorConfig)
     from graphnav.calibration.clock import align_stream_clocks
     velocity_only = DvlData(t_dvl, *no_beams(len(t_dvl)), dvl.v_b, source=dvl.source)
 
-    from graphnav.io.loaders import offset_on_written_stamps
-
-    def written(offset_s: float) -> float:
-        return offset_on_written_stamps(meta, "dvl", offset_s)
-
     def search(imu_: ImuData, meta_: dict, dvl_: DvlData = velocity_only, model=None) -> float:
-        # the offset said is on the stamps as written, as the configuration records it and a user gives it back
         aligned, _ = align_stream_clocks(imu_, dvl_, None, meta_, cfg, field="Time [s]",
-                                         what_to_do=_GIVE_OFFSET.format(kind="DVL", stream="dvl"), model=model,
-                                         written=written)
+                                         what_to_do=_GIVE_OFFSET.format(kind="DVL", stream="dvl"), model=model)
         return float(aligned.t[0] - dvl_.t[0])
     if np.mean((t_dvl >= t_imu[0]) & (t_dvl <= t_imu[-1])) >= 0.5:
         return _clock_beyond_the_fine_search(imu, velocity_only, cfg, meta, search), imu
@@ -804,8 +802,9 @@ OFFSET_SIGMA_WARN_S = 0.05
 
 
 def _note_akit(meta: dict, cfg: SensorConfig, dvl: DvlData, gt: GroundTruth | None, estimates: dict,
-               depth: DepthData | None = None) -> None:
-    """``meta["streams"]``: the prepared stamps' spans, the axis signs and the time offsets added."""
+               depth: DepthData | None = None, added_by: dict | None = None) -> None:
+    """``meta["streams"]``: the prepared stamps' spans, the axis signs and the time offsets added: estimated against
+    the GT (``estimates``), else as ``added_by`` says by stream (default: given)."""
     for stream, data in (("dvl", dvl), ("gt", gt), ("depth", depth)):
         if data is not None and stream in meta["streams"]:
             set_span(meta, stream, data.t)
@@ -816,7 +815,7 @@ def _note_akit(meta: dict, cfg: SensorConfig, dvl: DvlData, gt: GroundTruth | No
         if stream in meta["streams"]:
             est = estimates.get(stream)
             how = (f"estimated against the GT, sigma {est.sigma_s:.3f} s" if est is not None
-                   else "given or the vehicle's default")
+                   else (added_by or {}).get(stream, "given"))
             if est is not None and not est.sigma_s <= OFFSET_SIGMA_WARN_S:
                 text = (f"{stream} time offset {offset:+.3f} s estimated with sigma {est.sigma_s:.3f} s: the data "
                         "barely fix it (too little motion, or noisy); set the "
@@ -1014,7 +1013,7 @@ def _searched_reference_clock(imu: ImuData, gt: GroundTruth, meta: dict, name: s
     return add_gt_clock_offset(gt, est, meta, text), est.offset_s
 
 
-def _given_reference_clock(imu: ImuData, gt: GroundTruth, given: float, meta: dict, facts: dict, said=None):
+def _given_reference_clock(imu: ImuData, gt: GroundTruth, given: float, meta: dict, facts: dict):
     """The clock search a reference without a given offset gets (:func:`_far_reference_clock`), run on its stamps with
     the configuration's ``gt_time_offset_s`` ``given`` (s) added, for an A-KIT folder's GT and a log's or bag's
     reference alike: ``(gt, None)`` when it finds no confident offset beyond the fine search's reach (the given offset
@@ -1022,11 +1021,13 @@ def _given_reference_clock(imu: ImuData, gt: GroundTruth, given: float, meta: di
     data contradict. With the given offset the reference on the IMU span is used as given (:func:`_doubt_given`: its
     score doubted, and ``meta["gt_clock_doubted"]``: no alignment starts from it) and ``gt`` comes back as it is; off
     the span, where as given it would be lost, what the data give is added to ``gt``'s stamps instead (besides the
-    given offset), warned about naming the configuration, noted and its samples counted as doubted. ``said``: the
-    offset (s) on the reference's stamps as written, as the messages quote it, for one on ``gt.t`` (an A-KIT GT
-    rescaled about its own first stamp: :func:`graphnav.io.loaders.offset_on_written_stamps`); None: the same."""
+    given offset), warned about naming the configuration, noted and its samples counted as doubted. The messages quote
+    offsets on the reference's stamps as written (an A-KIT GT rescaled about its own first stamp:
+    :func:`graphnav.core.streams.offset_on_written_stamps`), as ``gt_time_offset_s`` is given."""
     key = "gt_time_offset_s"
-    said = said or float
+
+    def said(offset_s: float) -> float:
+        return offset_on_written_stamps(meta, "gt", offset_s)
     shifted = dataclasses.replace(gt, t=np.asarray(gt.t, float) + given)
     est = _far_reference_clock(imu, shifted)
     if est is None:
@@ -1198,7 +1199,8 @@ def _gyro_finds_the_clock(err: DataError, search, imu: ImuData, dvl: DvlData, co
         offset = _trial(lambda meta_: search(dataclasses.replace(imu, omega_b=imu.omega_b * k), meta_), meta)
         if offset is None:
             continue
-        found = (f", on the IMU clock at the offset {offset:+.3f} s the DVL clock search finds with the rates "
+        found = (f", on the IMU clock at the offset {_dvl_said(meta, offset):+.3f} s the DVL clock search finds "
+                 "with the rates "
                  f"x{k:.4g}, none with them as read")
         judged = check_gyro_against_dvl(imu, dataclasses.replace(dvl, t=dvl.t + offset), config, meta, found)
         if judged is not imu:
@@ -1303,9 +1305,9 @@ def _unit_finds_the_clock(err: DataError | None, search, imu: ImuData, dvl: DvlD
             shifted = dataclasses.replace(dvl, t=dvl.t + est["offset_s"])
             check_declared_velocity_unit(imu, shifted, config, meta, declared)
         said = "the declared " if declared and not declared.get("taken") else ""
-        raise DataError(f"{_clock_said(err, found)}; with the velocity in {other!r} instead of {said}{unit!r} the "
-                        f"search finds the DVL clock at {est['offset_s']:+.3f} s (the IMU explains {est['peak']:.2f} "
-                        f"of its velocity changes there){_speed_said(meta, refused)}: "
+        raise DataError(f"{_clock_said(err, found, meta)}; with the velocity in {other!r} instead of {said}{unit!r} "
+                        f"the search finds the DVL clock at {_dvl_said(meta, est['offset_s']):+.3f} s (the IMU "
+                        f"explains {est['peak']:.2f} of its velocity changes there){_speed_said(meta, refused)}: "
                         f"{_unit_advice(declared, fixes, other)}", *_where(err, dvl, meta, fixes)) from err
     if found is not None:
         _refuse_a_clock_by_a_hole(None, found["offset_s"], imu, dvl, meta, declared, fixes)
@@ -1343,10 +1345,20 @@ def _unit_advice(declared: dict | None, fixes: dict, unit: str | None = None) ->
     return f"check {declared['key']} (declared {declared['unit']!r})"
 
 
-def _clock_said(err: DataError | None, found: dict | None) -> str:
-    """The failed search's message, or the clock it found."""
-    return err.message if err is not None else (f"the DVL clock search finds the offset {found['offset_s']:+.3f} s "
-                                                f"(the IMU explains {found['peak']:.2f} of its velocity changes there)")
+def _clock_said(err: DataError | None, found: dict | None, meta: dict) -> str:
+    """The failed search's message, or the clock it found (its offset on the DVL stamps as written:
+    :func:`_dvl_said`)."""
+    return err.message if err is not None else (f"the DVL clock search finds the offset "
+                                                f"{_dvl_said(meta, found['offset_s']):+.3f} s (the IMU explains "
+                                                f"{found['peak']:.2f} of its velocity changes there)")
+
+
+def _dvl_said(meta: dict, offset_s: float) -> float:
+    """A DVL clock offset (s) a trial or search found on the DVL stamps the prepare step moves, as a message quotes it:
+    on the stamps as written, which ``dvl_time_offset_s`` is given for (an A-KIT file on a clock of its own is rescaled
+    about its own first stamp: 0.0025 of its distance from the folder's origin apart,
+    :func:`graphnav.core.streams.offset_on_written_stamps`); the same offset for any other."""
+    return offset_on_written_stamps(meta, "dvl", float(offset_s))
 
 
 def _where(err: DataError | None, dvl: DvlData, meta: dict, fixes: dict) -> tuple:
@@ -1379,8 +1391,9 @@ def _refuse_a_clock_by_a_hole(err: DataError | None, offset: float, imu: ImuData
     hole = int(on.sum()) - int(((t_with >= imu.t[0]) & (t_with <= imu.t[-1])).sum())
     if not refused or not hole >= HOLE_SHARE * max(int(on.sum()), 1):
         return
-    raise DataError(f"{_clock_said(err, None if err is not None else meta['clock_offsets']['dvl'])}"
-                    f"{_speed_said(meta, refused)}, and {what or 'the search settles on'} {offset:+.3f} s, where "
+    raise DataError(f"{_clock_said(err, None if err is not None else meta['clock_offsets']['dvl'], meta)}"
+                    f"{_speed_said(meta, refused)}, and {what or 'the search settles on'} "
+                    f"{_dvl_said(meta, offset):+.3f} s, where "
                     f"{hole} of the {int(on.sum())} pings on the IMU span are among those without a velocity: a clock "
                     "beside the hole they leave, not the vehicle's motion; the velocity's unit is the likelier fault: "
                     f"{_unit_advice(declared, fixes)}", *_where(err, dvl, meta, fixes)) from err
@@ -1415,7 +1428,8 @@ def _turn_finds_the_clock(err: DataError, search, imu: ImuData, dvl: DvlData, co
                                   f"a turn of {signed_turn(yaw):+d} deg about z finds the clock only at")
         raise DataError(f"{err.message}; but read as turned {_quarter_turn_said(imu, turned, offset, config, yaw)} "
                         f"from the IMU's axes (the velocity turned back into them), the DVL finds its clock at "
-                        f"{offset:+.3f} s (the IMU explains {est['peak']:.2f} of its velocity changes there, "
+                        f"{_dvl_said(meta, offset):+.3f} s (the IMU explains {est['peak']:.2f} of its velocity "
+                        "changes there, "
                         f"{est['second_peak']:.2f} at the next best offset): not the clock but a mounting turned about "
                         f"z. {turn_found(dvl, config, yaw, frame, fixes)}. The data are not read turned: with the "
                         "mounting fixed, the clock search finds the offset itself", err.source, err.line,
@@ -1483,11 +1497,12 @@ def _y_finds_the_clock(err: DataError | None, search, imu: ImuData, dvl: DvlData
                     and not (found is not None and found["confident"]))
     if fit is None or not (fit.refused and (fit.explained >= DVL_Y_MIN_EXPLAINED or only_negated)):
         return
-    read = (_clock_said(err, found) if err is not None or found["confident"] else
+    read = (_clock_said(err, found, meta) if err is not None or found["confident"] else
             _clock_not_found_said(found) + (" with the stamps on the IMU span" if on_the_imu_clock(dvl.t, imu.t)
                                             else ""))
     finds = "finds its clock" if negated["confident"] else "fits the IMU best"
-    raise DataError(f"{read}; but with its y negated the DVL {finds} at {negated['offset_s']:+.3f} s (the IMU explains "
+    raise DataError(f"{read}; but with its y negated the DVL {finds} at {_dvl_said(meta, negated['offset_s']):+.3f} s "
+                    f"(the IMU explains "
                     f"{negated['peak']:.2f} of its velocity changes there, {negated['second_peak']:.2f} at the next "
                     f"best offset): not the clock but {fit.said(fixes)}", *_where(err, dvl, meta, fixes)) from err
 
@@ -1573,15 +1588,16 @@ def _flu_finds_the_clock(err: DataError | None, search, imu: ImuData, dvl: DvlDa
         return
     if y_ratio < 1.0 / DVL_Y_MIN_RATIO:
         return
-    said = (err.message if err is not None else _clock_said(None, read) if read["confident"]
+    said = (err.message if err is not None else _clock_said(None, read, meta) if read["confident"]
             else f"{_clock_not_found_said(read)} with the stamps on the IMU span")
     as_read = (f"explains {read['peak']:.2f}, further from the stamps" if nearer and ratio < FLU_TRIAL_RATIO else
                f"leaves {ratio:.3g}x as much of them unexplained, {FLU_TRIAL_RATIO:g}x needed")
     or_y = ("" if y_ratio >= DVL_Y_MIN_RATIO else f" (or its y alone negated, which fits about as well there, "
             f"{y_ratio:.2f}x as much left unexplained: if so, {fixes['y']})")
-    raise DataError(f"{said}; but with its y and z negated the DVL finds its clock at {flu['offset_s']:+.3f} s (the "
-                    f"IMU explains {flu['peak']:.2f} of its velocity changes there, {flu['second_peak']:.2f} at the "
-                    f"next best offset; as read its best, {read['offset_s']:+.3f} s, {as_read}): not the clock but FLU "
+    raise DataError(f"{said}; but with its y and z negated the DVL finds its clock at "
+                    f"{_dvl_said(meta, flu['offset_s']):+.3f} s (the IMU explains {flu['peak']:.2f} of its velocity "
+                    f"changes there, {flu['second_peak']:.2f} at the next best offset; as read its best, "
+                    f"{_dvl_said(meta, read['offset_s']):+.3f} s, {as_read}): not the clock but FLU "
                     f"axes (ROS base_link) read as FRD? {fixes['flu']}{or_y}. The data are not read negated: with the "
                     "axes declared, the clock search finds the offset itself", *_where(err, dvl, meta, fixes)) from err
 

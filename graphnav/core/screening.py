@@ -154,13 +154,21 @@ def check_stamps(t: np.ndarray, source: str, field: str = "t") -> None:
         raise DataError.at_sample(f"time stamp {t[bad[0]]:.6g} s is beyond {MAX_STAMP_S:g} s ({bad.size} such "
                                   "stamp(s); micro/nanoseconds read as seconds, or corrupted)", source, int(bad[0]),
                                   field)
-    if t.size > 1:
-        jump = np.flatnonzero(np.abs(np.diff(t)) > MAX_STAMP_GAP_S)
-        if jump.size:
-            i = int(jump[0]) + 1
-            raise DataError.at_sample(f"time stamp jumps by {t[i] - t[i - 1]:.6g} s ({t[i - 1]:.6g} s then "
-                                      f"{t[i]:.6g} s), more than {MAX_STAMP_GAP_S:g} s inside one stream (a clock "
-                                      "reset or corrupted stamp)", source, i, field)
+    jump = stamp_jump(t)
+    if jump is not None:
+        raise DataError.at_sample(jump[1], source, jump[0], field)
+
+
+def stamp_jump(t: np.ndarray) -> tuple[int, str] | None:
+    """``(index, why)`` of the first stamp (s, sorted) more than :data:`MAX_STAMP_GAP_S` from the one before it (a
+    clock reset or a corrupted stamp), or None."""
+    t = np.asarray(t, float)
+    jump = np.flatnonzero(np.abs(np.diff(t)) > MAX_STAMP_GAP_S) if t.size > 1 else []
+    if not len(jump):
+        return None
+    i = int(jump[0]) + 1
+    return i, (f"time stamp jumps by {t[i] - t[i - 1]:.6g} s ({t[i - 1]:.6g} s then {t[i]:.6g} s), more than "
+               f"{MAX_STAMP_GAP_S:g} s inside one stream (a clock reset or corrupted stamp)")
 
 
 def stamp_outliers(t: np.ndarray) -> np.ndarray:

@@ -82,3 +82,48 @@ def add_note(meta: dict, stream: str, note: str) -> dict:
     entry = stream_entry(meta, stream)
     entry["notes"].append(note)
     return entry
+
+
+#: ``meta`` key of the files rescaled about their own first stamp (on a clock of their own), by stream:
+#: ``{"origin": s, "factor": the rescale, "folder_origin": s}``, which a time offset on their stamps as written needs
+#: (:func:`offset_on_rescaled_stamps`, :func:`offset_on_written_stamps`), set by
+#: :func:`graphnav.io.loaders.read_akit`; a time offset a user sees or gives is on the stamps as written.
+OWN_CLOCK_RESCALE = "own_clock_rescale"
+
+
+def offset_on_rescaled_stamps(meta: dict, stream: str, offset_s: float) -> float:
+    """The offset (s) to add to the rescaled stamps of ``stream`` that puts them where ``offset_s``, added to its
+    stamps as written, does: the stamps plus the offset rescaled as the folder's files are, about its origin
+    (:data:`OWN_CLOCK_RESCALE`). A file on a clock of its own is rescaled about its own first stamp ``T0``; an offset
+    added after that would land ``(1 - factor) (T0 + offset - origin)`` s late (0.0025 ``t0`` s for a piece cut ``t0``
+    s into a published grid a day away). ``offset_s`` itself for a file rescaled about the folder's origin or not
+    at all."""
+    own = meta.get(OWN_CLOCK_RESCALE, {}).get(stream)
+    if own is None:
+        return offset_s
+    factor = own["factor"]
+    return offset_s * factor + (1.0 - factor) * (own["folder_origin"] - own["origin"])
+
+
+def offset_on_written_stamps(meta: dict, stream: str, offset_s: float) -> float:
+    """The inverse of :func:`offset_on_rescaled_stamps`: the offset (s) on the stamps of ``stream`` as written that
+    puts them where ``offset_s`` added to its rescaled stamps does."""
+    own = meta.get(OWN_CLOCK_RESCALE, {}).get(stream)
+    if own is None:
+        return offset_s
+    factor = own["factor"]
+    return (offset_s - (1.0 - factor) * (own["folder_origin"] - own["origin"])) / factor
+
+
+def clock_offsets_on_written_stamps(meta: dict, stream: str, kept: dict | None) -> dict | None:
+    """``kept`` (a clock or time offset estimate as a dict: ``offset_s``, ``coarse_offset_s``, ``repeated_at_s``, s,
+    on the rescaled stamps of ``stream``) with those offsets on its stamps as written (:func:`offset_on_written_stamps`;
+    the same dict where there is nothing to convert)."""
+    own = meta.get(OWN_CLOCK_RESCALE, {}).get(stream)
+    if kept is None or own is None:
+        return kept
+    return {k: offset_on_written_stamps(meta, stream, float(v)) if k in OFFSET_KEYS else v for k, v in kept.items()}
+
+
+#: The keys of a clock or time offset estimate (dict) that hold offsets (s) on a stream's stamps.
+OFFSET_KEYS = ("offset_s", "coarse_offset_s", "repeated_at_s")

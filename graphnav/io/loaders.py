@@ -47,9 +47,10 @@ and 3 and the move of the GT to the IMU point, is the prepare step's (the read m
    of its own (seconds or days away) is first put on the IMU clock from the data
    (:mod:`graphnav.calibration.clock`). A file sharing the folder's clock has its offsets, found or given, added to
    its stamps as rescaled about the folder's origin (step 1): one a few seconds late, rescaled about 0 with its
-   shift, records 0.0025 of the shift more than the published file's offset less the shift. A file starting later
-   than the longest file lasts (a day away) is rescaled about its own first stamp, and its offset, found or given, is
-   for its stamps as written (:func:`offset_on_rescaled_stamps`): the published file's offset less the clock's shift,
+   shift, records 0.0025 of the shift more than the published file's offset less the shift. A file starting further
+   from the IMU's first stamp than the longest file lasts (a day away, late or early) is rescaled about its own first
+   stamp, and its offset, found, given or quoted by a message, is for its stamps as written
+   (:func:`graphnav.core.streams.offset_on_rescaled_stamps`): the published file's offset less the clock's shift,
    given, lands where the published file's samples do (to 0.0025 of the offset: 2.5 ms), and is what the clock search
    records. (Added after its own rescale, a given offset landed 0.0025 ``t0`` s late for a piece cut ``t0`` s into a
    published grid: 0.83 s from 330 s.) Either way the searched samples land where the published file's do.
@@ -138,12 +139,13 @@ from graphnav.core.screening import (
     refuse,
     refuse_rows,
     stamp_order,
+    stamp_jump,
     stamp_outliers,
     unit_check_rows,
     warn_no_bottom_lock,
     with_position_spikes,
 )
-from graphnav.core.streams import add_note, count_read, count_refused
+from graphnav.core.streams import OWN_CLOCK_RESCALE, add_note, count_read, count_refused
 
 #: Column names of the published A-KIT files, in order.
 AKIT_COLUMNS: dict[str, tuple[str, ...]] = {
@@ -431,6 +433,12 @@ def read_akit(folder: str | Path, *, rescale_stamps: bool = True, repair: bool =
     imu, dvl, gt = (read[k][0] if k in read else None for k in ("IMU", "DVL", "GT"))
     # before the screening: deg/s is not out of range; the GT rows to refuse are found with its units
     gt_refused = _akit_units(imu, dvl, gt, lines, files, meta, cfg)
+    for k, (a, rows) in read.items():
+        jump = stamp_jump(a[:, 0])
+        if jump is not None:
+            # named by its line before a stamp grid warns of the rows it seems to miss (the stream's own check, after
+            # that warning, named a sample)
+            raise DataError(jump[1], str(files[k]), int(rows[jump[0]]), AKIT_COLUMNS[k][0])
     if rescale_stamps:
         _rescale_akit_stamps({"imu": imu, "dvl": dvl, "gt": gt}, files, meta)
     # the DVL in the IMU's axes tells a knock from a burst of bad samples
@@ -654,56 +662,44 @@ AKIT_FAR_CLOCK_S = 86400.0
 
 def akit_stamp_origins(first: dict[str, float], last: dict[str, float]) -> dict[str, float]:
     """The stamp (s) each A-KIT file's stamps are rescaled about, by stream, from each file's first and last stamp
-    (s). A file that starts within the folder's recording shares the folder's clock: 0, where the published
-    ``linspace(0, T, N)`` grids start (a file cut short, or trimmed at the start, keeps its stamps on that grid, so
-    the rescale is about 0 for it too), or the folder's earliest first stamp when that lies more than
-    :data:`AKIT_FAR_CLOCK_S` from zero (the folder moved to a Unix clock: its grids start there). A file that starts
-    further after the folder's earliest stamp than the longest file lasts is on a clock of its own (days away),
-    whose grid starts at its own first stamp."""
+    (s). The files on the folder's clock (:func:`_on_the_folder_clock`: the IMU's, unless a file shares zero's) are
+    rescaled about :func:`akit_folder_origin`'s stamp (0, where the published ``linspace(0, T, N)`` grids start: a file
+    cut short, or trimmed at the start, keeps its stamps on that grid, so the rescale is about 0 for it too; the
+    earliest of these files' first stamps when that lies more than :data:`AKIT_FAR_CLOCK_S` from zero: the folder
+    moved to a Unix clock, its grids start there). A file on another clock (days away, before or after) is rescaled
+    about its own first stamp, and its offsets are converted for its stamps as written
+    (:func:`graphnav.core.streams.offset_on_written_stamps`)."""
     if not first:
         return {}
-    folder = min(first.values())
-    common = akit_folder_origin(first)
+    common = akit_folder_origin(first, last)
+    shared = _on_the_folder_clock(first, last)
+    return {k: common if k in shared else t0 for k, t0 in first.items()}
+
+
+def _on_the_folder_clock(first: dict[str, float], last: dict[str, float]) -> set[str]:
+    """The streams whose files share the folder's clock, from each file's first and last stamp (s): those starting
+    within the longest file's duration of the IMU file's first stamp (the earliest, without an IMU), unless that lies
+    more than :data:`AKIT_FAR_CLOCK_S` from zero and another file's does not (an IMU moved a day: the others' grids
+    start at 0, their offsets were recorded as the published ones plus the day). Anchored on the earliest file, a DVL a
+    day early was taken for the folder's clock and the IMU and GT for clocks of their own: rescaled about 0 a day away,
+    the DVL moved 216 s, and its correct offset was refused (a piece 330 s into the published grid)."""
     longest = max(last[k] - first[k] for k in first)
-    return {k: common if t0 - folder <= longest else t0 for k, t0 in first.items()}
+
+    def starting_near(anchor: float) -> set[str]:
+        return {k for k, t0 in first.items() if abs(t0 - anchor) <= longest}
+    shared = starting_near(first.get("imu", min(first.values())))
+    near_zero = [t0 for t0 in first.values() if abs(t0) <= AKIT_FAR_CLOCK_S]
+    if abs(min(first[k] for k in shared)) > AKIT_FAR_CLOCK_S and near_zero:
+        shared = starting_near(min(near_zero))
+    return shared
 
 
-def akit_folder_origin(first: dict[str, float]) -> float:
+def akit_folder_origin(first: dict[str, float], last: dict[str, float]) -> float:
     """The stamp (s) the files sharing an A-KIT folder's clock are rescaled about (:func:`akit_stamp_origins`), from
-    each file's first stamp (s): 0, or the folder's earliest first stamp on a clock more than
-    :data:`AKIT_FAR_CLOCK_S` from zero."""
-    folder = min(first.values())
+    each file's first and last stamp (s): 0, or the earliest first stamp of the files on the folder's clock when it
+    lies more than :data:`AKIT_FAR_CLOCK_S` from zero."""
+    folder = min(first[k] for k in _on_the_folder_clock(first, last))
     return folder if abs(folder) > AKIT_FAR_CLOCK_S else 0.0
-
-
-#: ``meta`` key of the files rescaled about their own first stamp (on a clock of their own), by stream:
-#: ``{"origin": s, "factor": the rescale, "folder_origin": s}``, which a time offset on their stamps as written needs
-#: (:func:`offset_on_rescaled_stamps`, :func:`offset_on_written_stamps`).
-OWN_CLOCK_RESCALE = "own_clock_rescale"
-
-
-def offset_on_rescaled_stamps(meta: dict, stream: str, offset_s: float) -> float:
-    """The offset (s) to add to the rescaled stamps of ``stream`` that puts them where ``offset_s``, added to its
-    stamps as written, does: the stamps plus the offset rescaled as the folder's files are, about its origin
-    (:data:`OWN_CLOCK_RESCALE`). A file on a clock of its own is rescaled about its own first stamp ``T0``; an offset
-    added after that would land ``(1 - factor) (T0 + offset - origin)`` s late (0.0025 ``t0`` s for a piece cut ``t0``
-    s into a published grid a day away). ``offset_s`` itself for a file rescaled about the folder's origin or not
-    at all."""
-    own = meta.get(OWN_CLOCK_RESCALE, {}).get(stream)
-    if own is None:
-        return offset_s
-    factor = own["factor"]
-    return offset_s * factor + (1.0 - factor) * (own["folder_origin"] - own["origin"])
-
-
-def offset_on_written_stamps(meta: dict, stream: str, offset_s: float) -> float:
-    """The inverse of :func:`offset_on_rescaled_stamps`: the offset (s) on the stamps of ``stream`` as written that
-    puts them where ``offset_s`` added to its rescaled stamps does."""
-    own = meta.get(OWN_CLOCK_RESCALE, {}).get(stream)
-    if own is None:
-        return offset_s
-    factor = own["factor"]
-    return (offset_s - (1.0 - factor) * (own["folder_origin"] - own["origin"])) / factor
 
 
 def _rescale_akit_stamps(arrays: dict, files: dict, meta: dict) -> None:
@@ -717,7 +713,8 @@ def _rescale_akit_stamps(arrays: dict, files: dict, meta: dict) -> None:
     now disagree)."""
     present = {k: a for k, a in arrays.items() if a is not None and len(a) >= 2}
     first = {k: float(a[0, 0]) for k, a in present.items()}
-    origins = akit_stamp_origins(first, {k: float(a[-1, 0]) for k, a in present.items()})
+    last = {k: float(a[-1, 0]) for k, a in present.items()}
+    origins, folder_origin = akit_stamp_origins(first, last), akit_folder_origin(first, last)
     kept, rescaled = [], []
     for k, a in present.items():
         step = grid_step(a[:, 0])
@@ -737,9 +734,9 @@ def _rescale_akit_stamps(arrays: dict, files: dict, meta: dict) -> None:
             add_note(meta, k, text)
             warnings.warn(f"{files[k.upper()]}: {text}", RuntimeWarning, stacklevel=4)
         a[:, 0] = _scaled_about(a[:, 0], origins[k], factor)
-        if origins[k] != akit_folder_origin(first):
+        if origins[k] != folder_origin:
             meta.setdefault(OWN_CLOCK_RESCALE, {})[k] = {"origin": origins[k], "factor": factor,
-                                                         "folder_origin": akit_folder_origin(first)}
+                                                         "folder_origin": folder_origin}
         about = f" about t = {origins[k]:.3f} s" if origins[k] else ""
         add_note(meta, k, f"stamps rescaled by {factor:.8g}{about}: the published linspace(0, T, N) step "
                           f"{step:.8g} s back on the sensor's {1.0 / AKIT_NOMINAL_RATE_HZ[k]:g} s period")
