@@ -796,12 +796,14 @@ def test_the_clock_search_builds_its_window_model_once_per_load(tmp_path, monkey
     throughout, with the same offset found; its offset, judged in place of one 78 s off (not clear) and moving the
     stamps, is searched once more with the velocity's y and z negated (FLU axes,
     ``preparation._flu_finds_the_clock``) and once with its y negated (``preparation._y_finds_the_clock``), each
-    velocity needing a model of its own: three builds per load."""
+    velocity needing a model of its own: three builds per load. Each of the three built the IMU's integrals again, the
+    same IMU's: only the DVL's side differs between them, and they share the IMU's, built once per load."""
     from graphnav.calibration import clock
-    built = []
+    built, imu_sides = [], []
 
     def counted(*args, **kwargs):
         built.append(kwargs.get("trim"))
+        imu_sides.append(kwargs.get("ints"))
         return dvl_window_model(*args, **kwargs)
     dvl_window_model = clock.dvl_window_model
     monkeypatch.setattr(clock, "dvl_window_model", counted)
@@ -812,8 +814,28 @@ def test_the_clock_search_builds_its_window_model_once_per_load(tmp_path, monkey
     with pytest.warns(RuntimeWarning, match=r"DVL clock offset -5\.\d+ s"):
         m = load_mission(config.parent, config)
     assert built == [True, True, True]
+    assert imu_sides[0] is not None and all(ints is imu_sides[0] for ints in imu_sides)
     np.testing.assert_allclose(m.dvl.t, sim.dvl.t, atol=1.0)
     assert m.meta["clock_offsets"]["dvl"]["repeated_at_s"] == pytest.approx(78.1, abs=1.0)
+
+
+def test_the_imu_integrals_at_the_pings_are_each_columns_interpolation_to_the_bit():
+    """The clock search interpolates the IMU's integrals at every ping for every offset it scores, one ``np.interp``
+    per column (18), each searching the grid again: most of a 1 h log's search. They are searched once for all the
+    columns, and every value is as before to the bit (an offset found, to its last digit, is then the same): pings
+    between grid stamps, on them, and before and after the grid (the end values held)."""
+    from graphnav.core.dvl_kinematics import imu_integrals
+    from graphnav.core.timeseries import interp_rows
+    rng = np.random.default_rng(4)
+    t = np.cumsum(rng.uniform(0.008, 0.012, 6000))
+    ints = imu_integrals(t, rng.standard_normal((len(t), 3)), 0.3 * rng.standard_normal((len(t), 3)))
+    pings = np.concatenate([rng.uniform(t[0] - 2.0, t[-1] + 2.0, 3000), ints.t[rng.integers(0, len(ints.t), 200)],
+                            ints.t[[0, -1]]])
+    got = ints.at(pings)
+    for x, y in zip((ints.F, ints.W, ints.omega, ints.M.reshape(-1, 9)), got):
+        assert y.flags.c_contiguous
+        np.testing.assert_array_equal(y, interp_rows(pings, ints.t, x))
+    assert np.array_equal(got[0][pings < ints.t[0]], np.broadcast_to(ints.F[0], (np.sum(pings < ints.t[0]), 3)))
 
 
 @pytest.mark.parametrize("late_s, builds, searches", [(0.0, 2, 1), (60.0, 2, 2)])

@@ -40,8 +40,8 @@ from scipy.optimize import minimize_scalar
 
 from graphnav.calibration.reference import _sigma_from_curvature
 from graphnav.core.dvl_kinematics import (COARSE_MAX_WINDOWS, MAX_CLOCK_GAP_S, MAX_WINDOW_GAP_S, MIN_OVERLAP_S,
-                                          dvl_window_model, gaps_said, offset_grid, search_overlap, still_velocity_said,
-                                          with_enough_pings)
+                                          ImuIntegrals, dvl_window_model, gaps_said, imu_integrals, offset_grid,
+                                          search_overlap, still_velocity_said, with_enough_pings)
 from graphnav.core.errors import DataError
 from graphnav.core.streams import OFFSET_KEYS, add_note, count_doubted, offset_on_written_stamps, set_span
 from graphnav.core.timeseries import cumulative_integral, interp_rows, on_the_imu_clock, overlap_text
@@ -225,9 +225,10 @@ class ClockOffset:
 # ------------------------------------------------------------------------------------------------
 # the estimate
 # ------------------------------------------------------------------------------------------------
-def clock_model(imu, dvl, config=None, lever_arm_b=None, window_pings: int | None = None):
+def clock_model(imu, dvl, config=None, lever_arm_b=None, window_pings: int | None = None, ints=None):
     """The window model the clock search scores offsets on (:func:`~graphnav.core.dvl_kinematics.dvl_window_model`,
-    windows trimmed at the IMU's ends; arguments as :func:`estimate_dvl_clock_offset`'s). Built once per search: the
+    windows trimmed at the IMU's ends; arguments as :func:`estimate_dvl_clock_offset`'s; ``ints``: the IMU's integrals
+    when built already, :class:`ImuSide`). Built once per search: the
     near and far searches, the stamps' score and the nearer offset's all score this one (``model``). Its windows are
     cut at steps between pings over :data:`~graphnav.core.dvl_kinematics.MAX_CLOCK_GAP_S`, or over
     :data:`~graphnav.core.dvl_kinematics.MAX_WINDOW_GAP_S` where the shorter cut leaves under two windows: a DVL
@@ -237,8 +238,26 @@ def clock_model(imu, dvl, config=None, lever_arm_b=None, window_pings: int | Non
     Raises:
         DataError: fewer than two windows of pings with a velocity.
     """
-    model, _ = dvl_window_model(imu, dvl, config, lever_arm_b, window_pings, trim=True, max_gap_s=MAX_CLOCK_GAP_S)
+    model, _ = dvl_window_model(imu, dvl, config, lever_arm_b, window_pings, trim=True, max_gap_s=MAX_CLOCK_GAP_S,
+                                ints=ints)
     return model if len(model.t) >= 2 else _across_short_gaps_model(imu, dvl, config, model)
+
+
+class ImuSide:
+    """The IMU's side of the clock models one prepare step builds (:class:`~graphnav.core.dvl_kinematics.ImuIntegrals`:
+    its integrals on their grid), built once per IMU stream and shared by every model of a DVL velocity against it: the
+    clock search's, its trials' with the velocity in other units, its y negated, in FLU axes or turned (only the DVL's
+    side differs between them), the stamps' score. An IMU converted (a gyro's other scale) has its own."""
+
+    def __init__(self):
+        self._built = {}
+
+    def __call__(self, imu) -> ImuIntegrals:
+        """The integrals of ``imu`` (:class:`~graphnav.core.mission.ImuData`), built on the first call for it."""
+        kept = self._built.get(id(imu))
+        if kept is None or kept[0] is not imu:     # the stream is kept, so its id is not another's
+            kept = self._built[id(imu)] = (imu, imu_integrals(imu.t, imu.f_b, imu.omega_b))
+        return kept[1]
 
 
 def _across_short_gaps_model(imu, dvl, config, model):
@@ -509,7 +528,7 @@ def _across_short_gaps(imu, dvl, config, min_overlap_s: float, inside: bool, mod
 
 def align_stream_clocks(imu, dvl, depth=None, meta: dict | None = None, config=None, *,
                         min_overlap_s: float = MIN_OVERLAP_S, field: str = "t",
-                        what_to_do: str = "give dvl_time_offset_s", model=None):
+                        what_to_do: str = "give dvl_time_offset_s", model=None, ints=None):
     """Put the DVL (and a depth stream from the same instrument) on the IMU clock: ``(dvl, depth)``.
 
     The clock offset is estimated (:func:`estimate_dvl_clock_offset`) and applied when it is confident (for a DVL on
@@ -519,10 +538,10 @@ def align_stream_clocks(imu, dvl, depth=None, meta: dict | None = None, config=N
     with the DVL's source (a DVL's pressure sensor) moves with it. The decision is noted in ``meta["streams"]`` and,
     when applied, warned about; ``meta["clock_offsets"]["dvl"]`` keeps the estimate. ``field``: the stamp column
     named in an error; ``what_to_do``: how to give the offset, for the error; ``model``: the :func:`clock_model` of
-    ``imu``, ``dvl`` and ``config`` when built already (the stamps' score before the search shares it). The offsets
-    the warning, notes and errors say are on the DVL's stamps as written (:meth:`ClockOffset.on_written_stamps`: an
-    A-KIT file on a clock of its own), which a user gives back as ``dvl_time_offset_s``; ``meta`` keeps the offset on
-    ``dvl.t``.
+    ``imu``, ``dvl`` and ``config`` when built already (the stamps' score before the search shares it); ``ints``: the
+    IMU's integrals the model is built on, when built already (:class:`ImuSide`). The offsets the warning, notes and
+    errors say are on the DVL's stamps as written (:meth:`ClockOffset.on_written_stamps`: an A-KIT file on a clock of
+    its own), which a user gives back as ``dvl_time_offset_s``; ``meta`` keeps the offset on ``dvl.t``.
 
     The search's windows are cut at steps between pings over
     :data:`~graphnav.core.dvl_kinematics.MAX_CLOCK_GAP_S` (:func:`clock_model`); where that finds no confident offset
@@ -538,7 +557,7 @@ def align_stream_clocks(imu, dvl, depth=None, meta: dict | None = None, config=N
     meta = {} if meta is None else meta
     inside = on_the_imu_clock(dvl.t, imu.t)
     try:
-        model = clock_model(imu, dvl, config) if model is None else model
+        model = clock_model(imu, dvl, config, ints=ints) if model is None else model
         est = _searched_offset(imu, dvl, config, min_overlap_s, inside, model)
         if not est.confident and np.any(np.diff(model.t_pings) > model.max_gap_s):
             est = _across_short_gaps(imu, dvl, config, min_overlap_s, inside, model, est, meta)

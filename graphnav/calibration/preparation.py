@@ -718,21 +718,24 @@ def _coarse_dvl_clock(imu: ImuData, dvl: DvlData, meta: dict, cfg: SensorConfig)
     convert the ``imu`` returned) and the DVL's velocity turned about z (:func:`_turn_finds_the_clock`, which names
     a turn that finds it)."""
     t_dvl, t_imu = dvl.t, imu.t
-    from graphnav.calibration.clock import align_stream_clocks
+    from graphnav.calibration.clock import ImuSide, align_stream_clocks
+    imu_side = ImuSide()
     velocity_only = DvlData(t_dvl, *no_beams(len(t_dvl)), dvl.v_b, source=dvl.source)
 
     def search(imu_: ImuData, meta_: dict, dvl_: DvlData = velocity_only, model=None) -> float:
         aligned, _ = align_stream_clocks(imu_, dvl_, None, meta_, cfg, field="Time [s]",
-                                         what_to_do=_GIVE_OFFSET.format(kind="DVL", stream="dvl"), model=model)
+                                         what_to_do=_GIVE_OFFSET.format(kind="DVL", stream="dvl"), model=model,
+                                         ints=imu_side(imu_))
         return float(aligned.t[0] - dvl_.t[0])
     if np.mean((t_dvl >= t_imu[0]) & (t_dvl <= t_imu[-1])) >= 0.5:
-        return _clock_beyond_the_fine_search(imu, velocity_only, cfg, meta, search), imu
+        return _clock_beyond_the_fine_search(imu, velocity_only, cfg, meta, search, imu_side(imu)), imu
     from graphnav.calibration.dvl_scale import AKIT_DVL_FIXES
     return _clock_searched(lambda imu_: search(imu_, meta), search, imu, velocity_only, cfg, meta, None,
                            AKIT_DVL_FIXES, _akit_imu_frame(cfg))
 
 
-def _clock_beyond_the_fine_search(imu: ImuData, dvl: DvlData, cfg: SensorConfig, meta: dict, search) -> float:
+def _clock_beyond_the_fine_search(imu: ImuData, dvl: DvlData, cfg: SensorConfig, meta: dict, search,
+                                  ints=None) -> float:
     """0, or the clock offset (s) of an A-KIT DVL whose pings lie on the IMU span but further off than the fine search
     reaches (:data:`~graphnav.calibration.reference.DVL_OFFSET_SEARCH_S`): found by ``search(imu, meta, dvl, model)``
     where the IMU explains its velocity changes poorly as stamped (under the clock search's ``MIN_PEAK``:
@@ -743,10 +746,11 @@ def _clock_beyond_the_fine_search(imu: ImuData, dvl: DvlData, cfg: SensorConfig,
     warnings are the mission's only where its offset is taken. Where it finds no clear offset (a DVL too noisy for
     its clock: Trajectory13 60 s late with 0.25 m/s of noise loaded 60 s off without a word), the stamps kept are
     warned about and their pings counted (:data:`CLOCK_NOT_FOUND`), unless the DVL velocity barely changes (a straight
-    steady leg: a note says its clock was not checked)."""
+    steady leg: a note says its clock was not checked). ``ints``: the IMU's integrals the search's model is built on
+    (:class:`graphnav.calibration.clock.ImuSide`)."""
     from graphnav.calibration.clock import MIN_PEAK
     from graphnav.calibration.reference import DVL_OFFSET_SEARCH_S
-    poorly = _stamps_explained_poorly(imu, dvl, cfg)
+    poorly = _stamps_explained_poorly(imu, dvl, cfg, ints)
     if poorly is None:
         return 0.0
     model, here = poorly
@@ -773,14 +777,15 @@ def _clock_beyond_the_fine_search(imu: ImuData, dvl: DvlData, cfg: SensorConfig,
     return trial.value if taken else 0.0
 
 
-def _stamps_explained_poorly(imu: ImuData, dvl: DvlData, config: SensorConfig) -> tuple[object, float] | None:
+def _stamps_explained_poorly(imu: ImuData, dvl: DvlData, config: SensorConfig,
+                             ints=None) -> tuple[object, float] | None:
     """``(model, here)`` where the IMU explains the DVL's velocity changes poorly at its stamps as read (``here``, under
     the clock search's ``MIN_PEAK``: a DVL that may be off its clock), ``model`` the clock search's window model
     (:func:`graphnav.calibration.clock.clock_model`) it was scored on, for the search to score as well; None where
-    the stamps explain more, or the pings are too few to tell."""
+    the stamps explain more, or the pings are too few to tell. ``ints``: the IMU's integrals, when built already."""
     from graphnav.calibration.clock import MIN_PEAK, clock_model, explained_as_stamped
     try:
-        model = clock_model(imu, dvl, config)
+        model = clock_model(imu, dvl, config, ints=ints)
     except DataError:
         return None
     here = explained_as_stamped(imu, dvl, config, model=model)
@@ -855,13 +860,15 @@ def _prepare_streams(mission: Mission, meta: dict, facts: dict) -> Mission:
     if facts.get("dvl_clock") == AUTO:
         # after a given offset too: a configuration copied from another mission, or a full dump's 0, may leave the
         # DVL seconds or days off; what the search finds under half a ping period is left as given
-        from graphnav.calibration.clock import align_stream_clocks
+        from graphnav.calibration.clock import ImuSide, align_stream_clocks
+        imu_side = ImuSide()
 
         def search(imu: ImuData, meta_: dict, dvl_: DvlData = searched) -> float:
-            return float(align_stream_clocks(imu, dvl_, None, meta_, mission.config)[0].t[0] - dvl_.t[0])
+            return float(align_stream_clocks(imu, dvl_, None, meta_, mission.config, ints=imu_side(imu))[0].t[0]
+                         - dvl_.t[0])
         (dvl, depth), imu = _clock_searched(
-            lambda imu_: align_stream_clocks(imu_, dvl, depth, meta, mission.config), search, mission.imu, searched,
-            mission.config, meta, judged_velocity_unit(meta), _dvl_fixes(facts),
+            lambda imu_: align_stream_clocks(imu_, dvl, depth, meta, mission.config, ints=imu_side(imu_)), search,
+            mission.imu, searched, mission.config, meta, judged_velocity_unit(meta), _dvl_fixes(facts),
             facts.get("imu_frame") or {"what": "the body frame"})
         mission = dataclasses.replace(mission, imu=imu)
         if not given and dvl is searched:
@@ -1296,9 +1303,9 @@ def _unit_finds_the_clock(err: DataError | None, search, imu: ImuData, dvl: DvlD
     else:
         found = None
     unit = declared["unit"] if declared else "m/s"
-    t, v = dvl_velocity_b(dvl, config)
+    v = dvl_velocity_b(dvl, config)[1]
     for other, k in other_velocity_units(unit, float(np.median(np.linalg.norm(v, axis=1))), config).items():
-        est = _trial_estimate(search, imu, DvlData(t, *no_beams(len(t)), v * k, source=dvl.source), meta)
+        est = _velocity_trial(search, imu, dvl, config, meta, k * np.eye(3))[0]
         if est is None or found is not None and not est["peak"] > found["peak"]:
             continue
         if declared:
@@ -1313,9 +1320,16 @@ def _unit_finds_the_clock(err: DataError | None, search, imu: ImuData, dvl: DvlD
         _refuse_a_clock_by_a_hole(None, found["offset_s"], imu, dvl, meta, declared, fixes)
 
 
-def _trial_estimate(search, imu: ImuData, dvl: DvlData, meta: dict) -> dict | None:
-    """The DVL clock ``search(imu, meta, dvl)`` as a trial: its estimate (:func:`_estimate_tried`)."""
-    return _estimate_tried(_tried(lambda meta_: search(imu, meta_, dvl), meta))
+def _velocity_trial(search, imu: ImuData, dvl: DvlData, config: SensorConfig, meta: dict,
+                    transform: np.ndarray) -> tuple[dict | None, DvlData]:
+    """The DVL clock ``search(imu, meta, dvl)`` as a trial of the body-frame velocity of ``dvl`` multiplied by the (3,3)
+    ``transform`` (in another unit, its y negated, in FLU axes, turned about z): ``(estimate, the velocity searched)``,
+    the estimate :func:`_estimate_tried`'s. Every trial is this one path, and its search builds its clock model on the
+    IMU's side the prepare step built once (:class:`graphnav.calibration.clock.ImuSide`): only the DVL's side
+    differs between the trials."""
+    t, v = dvl_velocity_b(dvl, config)
+    tried = DvlData(t, *no_beams(len(t)), v @ np.asarray(transform, float).T, source=dvl.source)
+    return _estimate_tried(_tried(lambda meta_: search(imu, meta_, tried), meta)), tried
 
 
 def _estimate_tried(trial: _Trial) -> dict | None:
@@ -1414,10 +1428,9 @@ def _turn_finds_the_clock(err: DataError, search, imu: ImuData, dvl: DvlData, co
     a ping period of the stamps: they are on the IMU clock, and the DVL's turn check has judged the turn there.
     ``tries``: how many of the turns, in that order, are searched."""
     from graphnav.calibration.dvl_scale import signed_turn, turn_about_z, turn_found, yaws_to_try
-    t, v = dvl_velocity_b(dvl, config)
+    t = dvl_velocity_b(dvl, config)[0]
     for yaw in yaws_to_try(dvl, config)[:tries]:
-        turned = DvlData(t, *no_beams(len(t)), v @ turn_about_z(yaw), source=dvl.source)
-        est = _trial_estimate(search, imu, turned, meta)
+        est, turned = _velocity_trial(search, imu, dvl, config, meta, turn_about_z(yaw).T)
         # on the IMU span the search keeps the stamps, with its estimate, where it finds no clear offset
         if est is None or not est["confident"]:
             continue
@@ -1479,14 +1492,13 @@ def _y_finds_the_clock(err: DataError | None, search, imu: ImuData, dvl: DvlData
     found = None if err is not None else meta.get("clock_offsets", {}).get("dvl")
     if meta.get(KEPT_AS_DECLARED) or (err is None and found is None):  # too few pings: no clock searched
         return
-    t, v = dvl_velocity_b(dvl, config)
+    t = dvl_velocity_b(dvl, config)[0]
     keeps_s = 0.5 * float(np.median(np.diff(t))) if keeps_s is None else keeps_s
     if found is not None and found["confident"] and abs(found["offset_s"]) <= keeps_s:
         at_stamps = _y_fit_at(imu, dvl, config, 0.0)
         if at_stamps is None or not at_stamps.refused:
             return
-    negated = _trial_estimate(search, imu, DvlData(t, *no_beams(len(t)), v @ DVL_Y_NEGATED.T, source=dvl.source),
-                              meta)
+    negated = _velocity_trial(search, imu, dvl, config, meta, DVL_Y_NEGATED)[0]
     if negated is None or not _y_explains_better(negated, found, on_the_imu_clock(dvl.t, imu.t)):
         return
     fit = _y_fit_at(imu, dvl, config, negated["offset_s"])
@@ -1573,8 +1585,7 @@ def _flu_finds_the_clock(err: DataError | None, search, imu: ImuData, dvl: DvlDa
     read = meta.get("clock_offsets", {}).get("dvl")
     if read is None or err is None and _clock_clear(read) and read["peak"] >= FLU_TRIAL_MAX_PEAK:
         return
-    t, v = dvl_velocity_b(dvl, config)
-    flu = _trial_estimate(search, imu, DvlData(t, *no_beams(len(t)), v @ DVL_FLU.T, source=dvl.source), meta)
+    flu = _velocity_trial(search, imu, dvl, config, meta, DVL_FLU)[0]
     if flu is None or not _clock_clear(flu):
         return
     ratio = (1.0 - read["peak"]) / max(1.0 - flu["peak"], 1e-9)
