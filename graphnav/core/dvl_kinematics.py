@@ -154,8 +154,8 @@ def imu_integrals(t: np.ndarray, f_b: np.ndarray, omega_b: np.ndarray, step_s: f
     R_T = np.swapaxes(Rotation.from_quat(q).as_matrix(), 1, 2)
     M = np.concatenate([np.zeros((1, 3, 3)), np.cumsum(0.5 * (R_T[1:] + R_T[:-1]) * step, axis=0)])
     omega = np.vstack([dtheta / step, dtheta[-1:] / step])
-    # column-major: every score interpolates each column, which np.interp would otherwise copy out of the rows
-    # (M too, as the (K,9) columns its (K,3,3) view reshapes back to)
+    # column-major: a column interpolated alone (np.interp) is not copied out of the rows (M too, as the (K,9) columns
+    # its (K,3,3) view reshapes back to); the clock's scores interpolate all of them at once (ImuIntegrals.at's rows)
     M = np.asfortranarray(M.reshape(-1, 9)).reshape(-1, 3, 3)
     return ImuIntegrals(edges, *map(np.asfortranarray, (F, W)), M, np.asfortranarray(omega))
 
