@@ -1042,3 +1042,23 @@ def test_an_imu_header_clock_stepping_while_the_messages_keep_arriving_is_moved_
     m, warned = _load(paths["mcap"], config)
     assert not [w for w in warned if "the header clock steps" in w]
     assert bag_convert.HEADER_CLOCK_STEP not in m.meta["streams"]["imu"].get("doubted", {})
+
+
+def test_a_bag_cut_mid_write_is_refused_saying_so_and_naming_the_file(sim, tmp_path):
+    """A bag whose MCAP file was cut at 60 % of its bytes (the recorder killed) was refused with rosbags' 'File end
+    magic is invalid.' alone: now the error names the MCAP file, says it was cut mid-write and how to recover its
+    complete chunks, through the bag folder or the file, in smooth as in info; a whole bag still opens."""
+    import shutil
+    _, config, paths, _ = sim
+    cut = tmp_path / "cut"
+    shutil.copytree(paths["mcap"], cut)
+    mcap = cut / "run_mcap.mcap"
+    data = mcap.read_bytes()
+    mcap.write_bytes(data[: int(len(data) * 0.6)])
+    said = rf"{re.escape(str(mcap))} ends before its MCAP footer, a recording cut mid-write .*`mcap recover run_mcap.mcap"
+    for path in (cut, mcap):
+        with pytest.raises(DataError, match=said):
+            load_mission(path, config)
+    assert cli.main(["smooth", "--data", str(cut), "--config", str(config), "--out", str(tmp_path / "out"),
+                     "--no-plots"]) == 1
+    assert load_mission(paths["mcap"], config).imu.t.size > 0

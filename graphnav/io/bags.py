@@ -257,6 +257,22 @@ class _Bag:
         return msgtype, head, np.array(receive, np.int64), rows
 
 
+#: The magic an MCAP file begins and ends with; a file that begins with it but does not end with it was cut.
+MCAP_MAGIC = b"\x89MCAP0\r\n"
+
+
+def _cut_mcap(path: Path) -> Path | None:
+    """The MCAP file of ``path`` (the file, or one in a bag folder) that begins with the MCAP magic but does not end
+    with it: a recording cut mid-write (the recorder killed, the disk full, the power lost); None when there is none."""
+    for f in ([path] if path.is_file() else sorted(path.glob("*.mcap"))):
+        with open(f, "rb") as fh:
+            head = fh.read(len(MCAP_MAGIC))
+            fh.seek(max(0, f.stat().st_size - len(MCAP_MAGIC)))
+            if head == MCAP_MAGIC and fh.read() != MCAP_MAGIC:
+                return f
+    return None
+
+
 def _open_reader(path: Path, source: str):
     require_rosbags()
     from rosbags.highlevel import AnyReader
@@ -264,6 +280,12 @@ def _open_reader(path: Path, source: str):
     try:
         reader.open()
     except Exception as exc:  # noqa: BLE001 - rosbags raises several reader error types
+        cut = _cut_mcap(path)
+        if cut is not None:
+            raise DataError(f"cannot open as a ROS bag: {cut} ends before its MCAP footer, a recording cut mid-write "
+                            "(the recorder killed, the disk full, the power lost); the mcap CLI's `mcap recover "
+                            f"{cut.name} -o recovered.mcap` rewrites the chunks that were complete into a new file "
+                            f"({type(exc).__name__}: {exc})", source) from None
         raise DataError(f"cannot open as a ROS bag: {type(exc).__name__}: {exc}", source) from None
     return reader
 
