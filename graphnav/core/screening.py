@@ -520,19 +520,22 @@ def imu_stalled(t: np.ndarray, f_b: np.ndarray, omega_b: np.ndarray) -> np.ndarr
     """(N,) bool IMU rows of a stalled sensor: in each run of rows repeating the row before them in all six values
     (``f_b`` m/s^2, ``omega_b`` rad/s, (N,3) each) that lasts :data:`IMU_STALL_MIN_S` or longer by the stamps ``t``
     (N,) s, the repeats (the first row of the run was read), unless the IMU repeats rows around the run as well
-    (:data:`IMU_STALL_CONTEXT_S`, :data:`IMU_STALL_CONTEXT_REPEAT_SHARE`: counts coarser than its noise)."""
+    (:data:`IMU_STALL_CONTEXT_S`, :data:`IMU_STALL_CONTEXT_REPEAT_SHARE`: counts coarser than its noise) or has no
+    finite row there to tell (a noise-free IMU repeating one reading throughout)."""
     t = np.asarray(t, float)
     x = np.hstack([np.asarray(f_b, float), np.asarray(omega_b, float)])
     out = np.zeros(len(t), dtype=bool)
     if len(t) < 3:
         return out
     repeats = np.r_[False, np.all(x[1:] == x[:-1], axis=1)]
+    # the rows a NaN or an infinite value refuses tell nothing of how the IMU's readings change
+    finite = np.all(np.isfinite(x), axis=1)
     edges = np.flatnonzero(np.diff(np.r_[0, repeats.astype(np.int8), 0]))
     for a, b in zip(edges[::2], edges[1::2]):           # rows a..b-1 repeat row a-1
         if t[b - 1] - t[a - 1] < IMU_STALL_MIN_S:
             continue
-        around = ((t >= t[a - 1] - IMU_STALL_CONTEXT_S) & (t < t[a - 1])) | ((t > t[b - 1]) &
-                                                                            (t <= t[b - 1] + IMU_STALL_CONTEXT_S))
+        around = finite & (((t >= t[a - 1] - IMU_STALL_CONTEXT_S) & (t < t[a - 1]))
+                           | ((t > t[b - 1]) & (t <= t[b - 1] + IMU_STALL_CONTEXT_S)))
         if around.any() and repeats[around].mean() < IMU_STALL_CONTEXT_REPEAT_SHARE:
             out[a:b] = True
     return out
