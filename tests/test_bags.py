@@ -993,3 +993,72 @@ def test_an_ahrs_imu_topic_read_as_the_heading_is_not_doubted_for_its_clock_and_
     assert not [w for w in warned if "heading row(s)" in w]
     assert len([w for w in warned if "row(s) repeating the row before them" in w]) == 1, warned
     assert m.meta["streams"]["imu"]["refused"] == m.meta["streams"]["heading"]["refused"] == {NUDGED_COPY: 1}
+
+
+def test_an_imu_header_clock_stepping_while_the_messages_keep_arriving_is_moved_back_not_bridged(sim, tmp_path):
+    """The IMU's header clock steps +5 s half-way while its messages keep arriving every 10 ms (the receive time shows
+    no gap): no sample was lost, but the step was read as a 5 s gap the run bridged, the second half 5 s off the DVL
+    (online: 11 m from the clean bag's track in 150 s, 'recovered' at the end); a 2-day step refused the whole bag.
+    Now the stamps after the step are moved back onto the clock before it, warned about naming the topic, the
+    message and the field, and counted as doubted; a gap the receive time shares (samples lost) is left as it was."""
+    from rosbags.highlevel import AnyReader
+
+    from graphnav.io import bag_convert
+    mission, config, paths, _ = sim
+    n = mission.imu.t.size
+    store = bags.typestore()
+
+    def stepped(name, step_ns, receive_too):
+        rows, k = [], 0
+        with AnyReader([paths["mcap"]], default_typestore=store) as reader:
+            for conn, t_ns, raw in reader.messages():
+                msg = store.deserialize_cdr(raw, conn.msgtype)
+                if conn.topic == "/imu/data":
+                    if k >= n // 2:
+                        ns = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec + step_ns
+                        msg.header.stamp.sec, msg.header.stamp.nanosec = ns // 1_000_000_000, ns % 1_000_000_000
+                        t_ns += step_ns if receive_too else 0
+                    k += 1
+                rows.append((conn.topic, conn.msgtype, t_ns, msg))
+        return _bag_with(tmp_path, name, sorted(rows, key=lambda r: r[2]), store)
+
+    for step_s in (5.0, 2 * 86400.0):
+        path = stepped(f"step{step_s:g}", int(step_s * 1e9), receive_too=False)
+        m, warned = _load(path, config)
+        np.testing.assert_allclose(m.imu.t, mission.imu.t - mission.imu.t[0], atol=2e-9)
+        said = [w for w in warned if "the header clock steps" in w]
+        assert len(said) == 1 and said[0].startswith(
+            f"{path}: /imu/data, message {n // 2} (t = {mission.imu.t[n // 2] + step_s:.3f} s), field 'header.stamp': "
+            f"the header clock steps {step_s + 0.01:+.3f} s while the messages kept arriving (receive time +0.010 s)")
+        assert m.meta["streams"]["imu"]["doubted"] == {bag_convert.HEADER_CLOCK_STEP: n - n // 2}
+        assert not [w for w in warned if "a gap of" in w]
+    # samples lost (the receive time steps with the header): still the gap the run bridges, nothing moved
+    path = stepped("lost", 500_000_000, receive_too=True)
+    m, warned = _load(path, config)
+    assert m.imu.t[n // 2] - m.imu.t[n // 2 - 1] == pytest.approx(0.51, abs=1e-6)
+    assert not [w for w in warned if "the header clock steps" in w]
+    assert [w for w in warned if "a gap of 0.5 s" in w]
+    # the clean bag: no step said
+    m, warned = _load(paths["mcap"], config)
+    assert not [w for w in warned if "the header clock steps" in w]
+    assert bag_convert.HEADER_CLOCK_STEP not in m.meta["streams"]["imu"].get("doubted", {})
+
+
+def test_a_bag_cut_mid_write_is_refused_saying_so_and_naming_the_file(sim, tmp_path):
+    """A bag whose MCAP file was cut at 60 % of its bytes (the recorder killed) was refused with rosbags' 'File end
+    magic is invalid.' alone: now the error names the MCAP file, says it was cut mid-write and how to recover its
+    complete chunks, through the bag folder or the file, in smooth as in info; a whole bag still opens."""
+    import shutil
+    _, config, paths, _ = sim
+    cut = tmp_path / "cut"
+    shutil.copytree(paths["mcap"], cut)
+    mcap = cut / "run_mcap.mcap"
+    data = mcap.read_bytes()
+    mcap.write_bytes(data[: int(len(data) * 0.6)])
+    said = rf"{re.escape(str(mcap))} ends before its MCAP footer, a recording cut mid-write .*`mcap recover run_mcap.mcap"
+    for path in (cut, mcap):
+        with pytest.raises(DataError, match=said):
+            load_mission(path, config)
+    assert cli.main(["smooth", "--data", str(cut), "--config", str(config), "--out", str(tmp_path / "out"),
+                     "--no-plots"]) == 1
+    assert load_mission(paths["mcap"], config).imu.t.size > 0

@@ -1588,3 +1588,34 @@ def test_a_column_map_imu_slower_than_its_logger_clock_is_read_at_the_configured
     m, messages = _load_recording(tmp_path, tmp_path / "config.json")
     assert any("agree with the configured imu_rate_hz 98 Hz" in s for s in messages)
     assert np.max(np.abs(m.imu.t + m.meta["t0_s"] - true)) < 2e-4
+
+
+def test_an_imu_stalled_for_2_s_is_refused_naming_its_lines_and_bridged_not_integrated(tmp_path):
+    """An IMU driver re-sending its last reading for 2 s (200 rows, every value the same) was integrated as the
+    vehicle's motion with no word: the end of a 40 s run 2 m from the clean run's, health never flagged (150 s: 32 m,
+    then DIVERGED). The repeats are now refused as a stalled sensor, warned about with their lines and counted, and the
+    run bridges them as a gap: the end within 0.3 m of the clean run's. An IMU whose counts are coarser than its noise
+    repeats rows everywhere and keeps them."""
+    from graphnav.core import screening
+    from graphnav.evaluation.methods import run_method
+    mission = simulate_mission(duration_s=40.0, seed=5)
+    clean = run_method(mission, "Graph-TC", "none")
+    k = 2000
+    mission.imu.f_b[k:k + 200] = mission.imu.f_b[k]
+    mission.imu.omega_b[k:k + 200] = mission.imu.omega_b[k]
+    cfg = _config(tmp_path, mission, _separate_files(tmp_path, mission))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        m = load_mission(tmp_path, cfg)
+    sol = run_method(m, "Graph-TC", "none")
+    assert np.linalg.norm(sol.p_n[-1, :2] - clean.p_n[-1, :2]) < 0.3
+    stalled = screening.IMU_STALLED
+    assert m.meta["streams"]["imu"]["refused"] == {stalled: 199}
+    said = [str(w.message) for w in caught if "imu sample(s) refused" in str(w.message)]
+    assert len(said) == 1 and f"imu.csv: 199 imu sample(s) refused (199 {stalled}) at line(s) {k + 3}, " in said[0]
+    # counts coarser than the noise (1e-3 rad/s, 0.05 m/s^2 at rest): rows repeat everywhere, none is a stall
+    rng = np.random.default_rng(0)
+    t = np.arange(3000) * 0.01
+    f = np.round((np.array([0.0, 0.0, -9.81]) + 1e-3 * rng.standard_normal((3000, 3))) / 0.05) * 0.05
+    w = np.round((np.array([1e-5, 0.0, 4e-5]) + 1e-6 * rng.standard_normal((3000, 3))) / 1e-3) * 1e-3
+    assert np.all(f[1:] == f[:-1], axis=1).mean() > 0.5 and not screening.imu_stalled(t, f, w).any()

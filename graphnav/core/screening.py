@@ -114,6 +114,15 @@ IMU_SHOCK_DVL_SPAN_S = 30.0
 IMU_SHOCK_LONG_HALF_WINDOW_S = 2.0
 #: Count key of the IMU rows of a knock the DVL saw (kept, doubted: ``meta["streams"]["imu"]["doubted"]``).
 IMU_SHOCK_KEPT = "shock kept (the DVL saw its velocity change)"
+#: A run of IMU rows each repeating the row before it in all six values over at least this long, s, is a stalled
+#: sensor (a driver re-sending its last reading): a real IMU's noise changes some value every row (the ten A-KIT
+#: trajectories: no row repeats the one before it), and 0.5 s of one reading integrates a 1 m/s^2 error into 0.5 m/s.
+IMU_STALL_MIN_S = 0.5
+#: ... when, within this long either side of the run, s, under this share of the rows repeat the row before them: an
+#: IMU whose counts are coarser than its noise (at rest, 1e-3 rad/s counts) repeats rows everywhere, and is kept.
+IMU_STALL_CONTEXT_S = 1.0
+IMU_STALL_CONTEXT_REPEAT_SHARE = 0.1
+IMU_STALLED = f"stalled (repeats the row before it in every value for {IMU_STALL_MIN_S:g} s or more)"
 #: Names of the IMU's six values, in the order of ``f_b`` then ``omega_b`` (reasons and warnings of loaders whose
 #: files have no column names of their own).
 IMU_FIELDS = ("f_b x", "f_b y", "f_b z", "omega_b x", "omega_b y", "omega_b z")
@@ -515,6 +524,31 @@ def _leaning(departure: np.ndarray, onset: np.ndarray, a: int, b: int) -> slice:
     return slice(a, b)
 
 
+def imu_stalled(t: np.ndarray, f_b: np.ndarray, omega_b: np.ndarray) -> np.ndarray:
+    """(N,) bool IMU rows of a stalled sensor: in each run of rows repeating the row before them in all six values
+    (``f_b`` m/s^2, ``omega_b`` rad/s, (N,3) each) that lasts :data:`IMU_STALL_MIN_S` or longer by the stamps ``t``
+    (N,) s, the repeats (the first row of the run was read), unless the IMU repeats rows around the run as well
+    (:data:`IMU_STALL_CONTEXT_S`, :data:`IMU_STALL_CONTEXT_REPEAT_SHARE`: counts coarser than its noise) or has no
+    finite row there to tell (a noise-free IMU repeating one reading throughout)."""
+    t = np.asarray(t, float)
+    x = np.hstack([np.asarray(f_b, float), np.asarray(omega_b, float)])
+    out = np.zeros(len(t), dtype=bool)
+    if len(t) < 3:
+        return out
+    repeats = np.r_[False, np.all(x[1:] == x[:-1], axis=1)]
+    # the rows a NaN or an infinite value refuses tell nothing of how the IMU's readings change
+    finite = np.all(np.isfinite(x), axis=1)
+    edges = np.flatnonzero(np.diff(np.r_[0, repeats.astype(np.int8), 0]))
+    for a, b in zip(edges[::2], edges[1::2]):           # rows a..b-1 repeat row a-1
+        if t[b - 1] - t[a - 1] < IMU_STALL_MIN_S:
+            continue
+        around = finite & (((t >= t[a - 1] - IMU_STALL_CONTEXT_S) & (t < t[a - 1]))
+                           | ((t > t[b - 1]) & (t <= t[b - 1] + IMU_STALL_CONTEXT_S)))
+        if around.any() and repeats[around].mean() < IMU_STALL_CONTEXT_REPEAT_SHARE:
+            out[a:b] = True
+    return out
+
+
 def _not_shocks(v: np.ndarray, median: np.ndarray, limit: np.ndarray) -> np.ndarray:
     """(N,k) values of ``v`` (N,k) departing from ``median`` by more than ``limit`` (N,k) that are no shock's: in
     each run of departing rows of a column, from the first value that jumped there on (:func:`jumped`). A shock (a
@@ -539,7 +573,8 @@ def imu_implausible(t: np.ndarray, f_b: np.ndarray, omega_b: np.ndarray, config:
                     meta: dict | None = None, source: str = "", dvl: tuple | None = None) -> dict[str, np.ndarray]:
     """The IMU rows a loader refuses, by reason, disjoint and in the order tested: a NaN or infinite value
     (:func:`not_finite`), beyond full scale (:func:`imu_out_of_range`), a spike among the rest
-    (:func:`imu_spikes`, with the ``dvl``'s velocity when given). ``t``: (N,) stamps, s; ``fields``: names of the six
+    (:func:`imu_spikes`, with the ``dvl``'s velocity when given), the repeats of a stalled sensor
+    (:func:`imu_stalled`: the run then bridges them as a gap). ``t``: (N,) stamps, s; ``fields``: names of the six
     values, f_b then omega_b. When the IMU is too slow for the spike test, a note in ``meta``'s IMU stream (when
     given) and a warning naming ``source``; a knock kept on the DVL's word: a warning, counted as doubted, and its span
     in ``meta["imu_shocks"]`` (the stream does not test those rows again: ``NavigatorOptions.imu_shocks``)."""
@@ -556,7 +591,7 @@ def imu_implausible(t: np.ndarray, f_b: np.ndarray, omega_b: np.ndarray, config:
     spikes = imu_spikes(t, f_b, omega_b, config, fields, usable=~bad, rate_hz=rate, dvl=dvl, kept=kept)
     if kept:
         _note_shocks(kept, meta, source)
-    return {**nan, **out_of_range, **spikes}
+    return {**nan, **out_of_range, **spikes, IMU_STALLED: imu_stalled(t, f_b, omega_b)}
 
 
 def _note_shocks(kept: list, meta: dict | None, source: str) -> None:

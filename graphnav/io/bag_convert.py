@@ -9,6 +9,7 @@ right, z down; for a down-looking DVL both are graphnav's DVL frame d).
 from __future__ import annotations
 
 import warnings
+import dataclasses
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -21,7 +22,7 @@ from graphnav.core.mission import (MAX_DVL_SPEED_MPS, MAX_FIX_SIGMA_M, DepthData
 from graphnav.core.rotations import C_NED_ENU
 from graphnav.core.screening import (EXACT_COPY, NUDGED_COPY, exact_copies, located, nudged_copies, say_exact_copies,
                                      say_imu_stamp_steps, say_nudged_copies)
-from graphnav.core.streams import add_note, count_refused
+from graphnav.core.streams import add_note, count_refused, say_doubted
 from graphnav.io import bag_fields
 from graphnav.io.bag_msgs import MARINE_DVL, WL_DVL
 
@@ -224,6 +225,53 @@ def _rel(s: Stream, t0_ns: int) -> np.ndarray:
 
 
 # --- IMU ---------------------------------------------------------------------------------------------------
+#: A stepped header clock is judged against the receive clock over this many messages either side of the step: the
+#: medians of header minus receive time there (the recorder's latency, which jitters) must differ by the step.
+HEADER_STEP_WINDOW = 100
+#: The spread of that latency (median absolute deviation before the step) a step must exceed this many times over.
+HEADER_STEP_SPREADS = 10.0
+HEADER_CLOCK_STEP = "stamped after a step of the header clock the receive clock does not show (moved back)"
+
+
+def header_clock_steps_removed(s: Stream, source: str, meta: dict) -> Stream:
+    """``s`` (the IMU topic, on its header stamps) with each forward step of its header clock that the bag's receive
+    clock does not share taken out: a gap of whole periods in the header stamps reads as samples lost, bridged by the
+    run, but when the messages kept arriving at the period (header minus receive time steps by the gap and stays
+    there) no sample was lost: the IMU's clock stepped, and the stamps from that message on are moved back so the
+    step lasts as many periods as the receive time says passed (one, mostly). Each step is warned about naming the
+    topic, the message, its time and the field, and its samples counted as doubted in ``meta``; a gap the receive
+    time shares too (samples lost, or the recorder's clock stepping with it) is left to
+    :func:`graphnav.core.screening.say_imu_stamp_steps`."""
+    from graphnav.core.imu_timing import GAP_WARN_SAMPLES, imu_step_stats
+    if s.stamp_kind != "header" or s.receive_ns is None or len(s.t_ns) < 3:
+        return s
+    t_ns = np.asarray(s.t_ns, np.int64).copy()
+    rx_ns = np.asarray(s.receive_ns, np.int64)
+    period = imu_step_stats(np.diff(t_ns) / 1e9)[0]
+    if not np.isfinite(period) or period <= 0:
+        return s
+    moved = 0
+    for i in np.flatnonzero(np.diff(t_ns) / 1e9 >= GAP_WARN_SAMPLES * period):
+        latency = (t_ns - rx_ns) / 1e9
+        before, after = latency[max(0, i + 1 - HEADER_STEP_WINDOW):i + 1], latency[i + 1:i + 1 + HEADER_STEP_WINDOW]
+        spread = float(np.median(np.abs(before - np.median(before))))
+        step = float(np.median(after) - np.median(before))
+        if step < max(GAP_WARN_SAMPLES * period, HEADER_STEP_SPREADS * spread):
+            continue
+        jump = (t_ns[i + 1] - t_ns[i]) / 1e9
+        periods = max(1, round((jump - step) / period))
+        shift_ns = int(round((jump - periods * period) * 1e9))
+        t_ns[i + 1:] -= shift_ns
+        moved += 1
+        at = _named(np.array([i + 1 if s.index is None else s.index[i + 1]]), t_ns[i + 1:i + 2] + shift_ns, t_ns[0])[0]
+        text = (f"{s.topic}, {at}, field '{STAMP_FIELDS['header']}': the header clock steps {jump:+.3f} s while the "
+                f"messages kept arriving (receive time {(rx_ns[i + 1] - rx_ns[i]) / 1e9:+.3f} s): no samples lost; "
+                f"the stamps from this message on are moved back by {shift_ns / 1e9:.3f} s onto the clock before "
+                f"the step")
+        say_doubted(meta, "imu", source, text, HEADER_CLOCK_STEP, len(t_ns) - i - 1, stacklevel=2)
+    return dataclasses.replace(s, t_ns=t_ns) if moved else s
+
+
 def imu(s: Stream, t0_ns: int, source: str, meta: dict) -> ImuData:
     """The IMU stream's samples (FRD, SI): a message with a NaN or infinite value is refused, warned about (its
     index in the topic and its time) and counted in ``meta`` as the loaders count a refused CSV row; more than

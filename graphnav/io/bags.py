@@ -257,6 +257,22 @@ class _Bag:
         return msgtype, head, np.array(receive, np.int64), rows
 
 
+#: The magic an MCAP file begins and ends with; a file that begins with it but does not end with it was cut.
+MCAP_MAGIC = b"\x89MCAP0\r\n"
+
+
+def _cut_mcap(path: Path) -> Path | None:
+    """The MCAP file of ``path`` (the file, or one in a bag folder) that begins with the MCAP magic but does not end
+    with it: a recording cut mid-write (the recorder killed, the disk full, the power lost); None when there is none."""
+    for f in ([path] if path.is_file() else sorted(path.glob("*.mcap"))):
+        with open(f, "rb") as fh:
+            head = fh.read(len(MCAP_MAGIC))
+            fh.seek(max(0, f.stat().st_size - len(MCAP_MAGIC)))
+            if head == MCAP_MAGIC and fh.read() != MCAP_MAGIC:
+                return f
+    return None
+
+
 def _open_reader(path: Path, source: str):
     require_rosbags()
     from rosbags.highlevel import AnyReader
@@ -264,6 +280,12 @@ def _open_reader(path: Path, source: str):
     try:
         reader.open()
     except Exception as exc:  # noqa: BLE001 - rosbags raises several reader error types
+        cut = _cut_mcap(path)
+        if cut is not None:
+            raise DataError(f"cannot open as a ROS bag: {cut} ends before its MCAP footer, a recording cut mid-write "
+                            "(the recorder killed, the disk full, the power lost); the mcap CLI's `mcap recover "
+                            f"{cut.name} -o recovered.mcap` rewrites the chunks that were complete into a new file "
+                            f"({type(exc).__name__}: {exc})", source) from None
         raise DataError(f"cannot open as a ROS bag: {type(exc).__name__}: {exc}", source) from None
     return reader
 
@@ -373,6 +395,9 @@ def load_bag(path: str | Path, config: SensorConfig | None = None, topics: dict[
     streams = read_streams(path, topics, meta=meta, dvl_fields=config.bag_topics.get("dvl"))
     imu_s = streams["imu"][0] if "imu" in topics else _pick_one("imu", streams["imu"], source)
     dvl_s = streams["dvl"][0] if "dvl" in topics else _pick_one("dvl", streams["dvl"], source)
+    stepped = conv.header_clock_steps_removed(imu_s, source, meta)
+    streams["imu"] = [stepped if s is imu_s else s for s in streams["imu"]]   # an AHRS read again as the heading
+    imu_s = stepped
     t0_ns = int(imu_s.t_ns[0])
     meta.update({"format": "ros1" if meta["bag_kind"] == "ros1" else "rosbag2", "t0_unix_ns": t0_ns})
     _record(meta, "imu", imu_s, t0_ns, source)
