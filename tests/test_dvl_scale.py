@@ -389,8 +389,8 @@ def test_a_short_akit_piece_a_day_off_with_an_outage_is_not_judged_in_a_wrong_un
     """Trajectory3's 60 s from 120 s without GT, 6 DVL rows dropped after the 37th (a 7 s step), its stamps a day off:
     the clock search (its windows cut at steps over 5 s) placed it, but the speed check's windows were cut only at
     steps over 20 s, one spanned the outage (its ``int omega x v`` holding the velocity through it), and its best fit,
-    9.5 s off the clock found, read the speed 1.48x the IMU's: refused as a velocity in a unit 1.48x m/s. Its windows
-    are cut where the clock search's are: the piece loads with its pings where its GT puts them."""
+    9.5 s off the clock found, read the speed 1.48x the IMU's: refused as a velocity in a unit 1.48x m/s. Its scale is
+    fitted on windows cut where the clock search's are: the piece loads with its pings where its GT puts them."""
     from graphnav.missions import load_mission
     from test_dvl_frame import _akit_crop_without_gt
     with_gt = _akit_crop_without_gt(akit_dir / "Trajectory3", tmp_path / "gt", np.eye(3), 60.0, 120.0, gt=True)

@@ -137,15 +137,13 @@ def consecutive_triples(t: np.ndarray, real: np.ndarray) -> np.ndarray:
 
 
 def judging_model(imu, dvl, config, **kwargs):
-    """The clock model (:func:`~graphnav.core.dvl_kinematics.outage_cut_model`, its keyword arguments: windows cut at
-    the clock search's steps between pings) when the DVL velocity changes enough to judge anything by
-    (:data:`MIN_VELOCITY_CHANGE_MPS`, :data:`MIN_CHANGE_OVER_NOISE`). The other readings a check compares it with are
-    built on its windows (``max_gap_s=read.max_gap_s``).
+    """The clock model (:func:`~graphnav.core.dvl_kinematics.dvl_window_model`, its keyword arguments) when the DVL
+    velocity changes enough to judge anything by (:data:`MIN_VELOCITY_CHANGE_MPS`, :data:`MIN_CHANGE_OVER_NOISE`).
 
     Raises:
         DataError: under two windows of pings, or a velocity that changes by less, naming the DVL file.
     """
-    model = outage_cut_model(imu, dvl, config, **kwargs)
+    model, _ = dvl_window_model(imu, dvl, config, **kwargs)
     change, noise = velocity_change_rms(model)
     if not (change >= MIN_VELOCITY_CHANGE_MPS or change >= MIN_CHANGE_OVER_NOISE * noise):
         raise DataError(f"the DVL velocity changes by {change:.2g} m/s RMS within its {WINDOW_S:g} s windows, within "
@@ -158,7 +156,7 @@ def flu_fit_ratio(read, imu, dvl, config, offsets=(0.0,)) -> tuple[float, float]
     """``(SSE as read / SSE with y, z negated, explained fraction negated)`` of the clock model ``read`` (the DVL
     as read, :func:`~graphnav.core.dvl_kinematics.dvl_window_model`) at the DVL offset ``offsets`` (s), or, given
     several, each reading at its own best of them over the same windows (:func:`_best_fits`)."""
-    flipped, _ = dvl_window_model(imu, dvl, config, transform=DVL_FLU, ints=read.imu, max_gap_s=read.max_gap_s)
+    flipped, _ = dvl_window_model(imu, dvl, config, transform=DVL_FLU, ints=read.imu)
     offsets = np.atleast_1d(np.asarray(offsets, float))
     if len(offsets) > 1:
         fits = _best_fits({0: read, "flu": flipped}, offsets)
@@ -172,7 +170,7 @@ def y_negated_over_flu(read, imu, dvl, config) -> float:
     negated (:data:`DVL_Y_NEGATED`) over with its y and z negated (:data:`DVL_FLU`), on the windows of the clock model
     ``read`` (the DVL as read): about 1 where the vertical velocity barely changes (a level vehicle), which cannot tell
     FLU axes from a y negated."""
-    models = {k: dvl_window_model(imu, dvl, config, transform=m, ints=read.imu, max_gap_s=read.max_gap_s)[0]
+    models = {k: dvl_window_model(imu, dvl, config, transform=m, ints=read.imu)[0]
               for k, m in (("y", DVL_Y_NEGATED), ("flu", DVL_FLU))}
     return models["y"].score(0.0)[1] / max(models["flu"].score(0.0)[1], 1e-300)
 
@@ -224,7 +222,7 @@ def imu_turned_models(read, imu, dvl, config) -> dict:
     for yaw in IMU_YAWS_DEG:
         T = turn_about_z(yaw).T
         models[yaw], _ = dvl_window_model(imu, dvl, config, lever_arm_b=T @ config.dvl.lever_arm_b, transform=T,
-                                          ints=read.imu, max_gap_s=read.max_gap_s)
+                                          ints=read.imu)
     return models
 
 
@@ -259,16 +257,15 @@ def y_negated_fit(models: dict, imu, dvl, config, yaw: int, offsets=(0.0,)) -> t
     on both sensors is no turn (it makes the axes left-handed) and no motion explains it: the centripetal acceleration
     in turns reads on the wrong side, which a turn of 180 deg puts right (and the acceleration along x wrong), so a
     vehicle that turns more than it speeds up fits it turned."""
-    fits = _best_fits({0: models[0], yaw: models[yaw], "y": imu_y_negated_model(imu, dvl, config, models[0])},
-                      offsets)
+    fits = _best_fits({0: models[0], yaw: models[yaw], "y": imu_y_negated_model(imu, dvl, config)}, offsets)
     return _evidence(fits[0], fits["y"]), _evidence(fits[yaw], fits["y"])
 
 
-def imu_y_negated_model(imu, dvl, config, read):
+def imu_y_negated_model(imu, dvl, config):
     """The clock model (:func:`~graphnav.core.dvl_kinematics.dvl_window_model`) of the DVL against the IMU with its y
-    negated on the accelerometer and the gyro (:data:`Y_NEGATED`), on the windows of ``read`` (the DVL as read)."""
+    negated on the accelerometer and the gyro (:data:`Y_NEGATED`)."""
     negated = dataclasses.replace(imu, f_b=imu.f_b * Y_NEGATED, omega_b=imu.omega_b * Y_NEGATED)
-    return dvl_window_model(negated, dvl, config, max_gap_s=read.max_gap_s)[0]
+    return dvl_window_model(negated, dvl, config)[0]
 
 
 #: The DVL velocity's y negated (v_b = this @ v as read): a DVL frame taken left-handed (a driver's sign, an RDI
@@ -364,7 +361,7 @@ def dvl_y_negated_fit(read, imu, dvl, config) -> DvlYFit:
     with the other axis errors that fit a y negated partly: the DVL's y and z negated (FLU), the IMU turned 90, 180 or
     270 deg about z (:func:`imu_turned_models`) and its y negated on both sensors (:func:`imu_y_negated_model`). A
     vehicle whose sideways velocity never changes (no current, no lever arm, no sideslip in turns) shows none of it."""
-    negated = dvl_window_model(imu, dvl, config, transform=DVL_Y_NEGATED, ints=read.imu, max_gap_s=read.max_gap_s)[0]
+    negated = dvl_window_model(imu, dvl, config, transform=DVL_Y_NEGATED, ints=read.imu)[0]
     fits = _best_fits({0: read, "y": negated}, (0.0,))
     q_read = _evidence(fits[0], fits["y"])
     ratio = fits[0][0] / max(fits["y"][0], 1e-300)
@@ -372,8 +369,8 @@ def dvl_y_negated_fit(read, imu, dvl, config) -> DvlYFit:
         return DvlYFit(q_read, ratio, explained=1.0 - fits["y"][0])
     others = {f"the IMU turned {yaw} deg about z": m for yaw, m in imu_turned_models(read, imu, dvl, config).items()
               if yaw}
-    others["the IMU's y negated on both sensors"] = imu_y_negated_model(imu, dvl, config, read)
-    others["FLU"] = dvl_window_model(imu, dvl, config, transform=DVL_FLU, ints=read.imu, max_gap_s=read.max_gap_s)[0]
+    others["the IMU's y negated on both sensors"] = imu_y_negated_model(imu, dvl, config)
+    others["FLU"] = dvl_window_model(imu, dvl, config, transform=DVL_FLU, ints=read.imu)[0]
     fits.update(_best_fits({0: read, **others}, (0.0,)))
     q = {k: _evidence(fits[k], fits["y"]) for k in others}
     other = min((k for k in q if k != "FLU"), key=q.get)
@@ -880,7 +877,7 @@ def _or_flu_axes(models: dict, imu, dvl, config, yaw: int, offsets, fixes: dict 
     '' for other turns, without ``fixes``, or where the turn fits clearly better."""
     if yaw != 180 or fixes is None:
         return ""
-    flu, _ = dvl_window_model(imu, dvl, config, transform=DVL_FLU, ints=models[0].imu, max_gap_s=models[0].max_gap_s)
+    flu, _ = dvl_window_model(imu, dvl, config, transform=DVL_FLU, ints=models[0].imu)
     fits = _best_fits({0: models[0], 180: models[180], "flu": flu}, offsets)
     q = _evidence(fits[180], fits["flu"])
     if q <= -IMU_YAW_MIN_Q:
@@ -1019,9 +1016,11 @@ def check_velocity_against_imu(imu, dvl, config, meta: dict, moved: bool = False
         or_dvl_y = ""
     else:
         or_dvl_y = check_dvl_y(imu, dvl, config, meta, model, field, fixes)
-    best, fits = best_speed_fit(model, SCALE_OFFSETS_S)
+    # the scale over windows cut where the clock search's are (MAX_CLOCK_GAP_S): a window across a 7 s outage holds
+    # the velocity through it, and a 60 s A-KIT piece a day off fitted 1.48x 9.5 s off the clock found there
+    best, fits = best_speed_fit(outage_cut_model(imu, dvl, config, ints=model.imu), SCALE_OFFSETS_S)
     scale, r2, _ = fits[best]
-    # the turn over the windows no outage crosses (MAX_TURN_GAP_S): the scale is a ratio an outage barely moves
+    # the turn over the windows no outage crosses (MAX_TURN_GAP_S), whose 20 s length its MAX_YAW_RAD was measured on
     _, turn_r2, yaw = speed_scale(model, SCALE_OFFSETS_S[best], gapless=True)
     if r2 >= MIN_SCALE_R2 and not 1 / MAX_SCALE_ERROR < scale < MAX_SCALE_ERROR:
         declared = meta.get("prepare", {}).get("dvl_unit")      # the key a declared unit is set under, to name

@@ -43,8 +43,7 @@ MAX_WINDOW_GAP_S = WINDOW_S
 #: spikes): 5 of 12 refused with windows across the steps, all 12 found within 0.18 s cut at 5 s. Where this cut finds
 #: no confident offset, the clock search tries windows cut at MAX_WINDOW_GAP_S as well (a noisy DVL losing pings
 #: often: :func:`graphnav.calibration.clock.align_stream_clocks`). The turn fit's MAX_TURN_GAP_S is the same 5 s, and
-#: the DVL checks' windows (unit, turn, axes: :func:`graphnav.calibration.dvl_scale.judging_model`) are cut so too
-#: (:func:`outage_cut_model`).
+#: the DVL speed check's scale is fitted on windows cut so too (:func:`outage_cut_model`).
 MAX_CLOCK_GAP_S = 5.0
 #: ... and any window model's, for a DVL pinging slower, at gaps over this many of its ping periods (the median step):
 #: a ping missed, not every step of its steady rate. A 1200 s simulated DVL thinned to a ping every 5 or 6 s, a day
@@ -229,7 +228,7 @@ class _WindowModel:
     (``trim`` True, the clock search's: a window reaching past the IMU's end by a ping keeps its other pings, so
     offsets a few seconds apart score nearly the same pings and none wins by leaving out a window it explains
     badly). No window spans a gap of more than ``max_gap_s`` (:data:`MAX_WINDOW_GAP_S`; the clock search's and the
-    DVL checks' :data:`MAX_CLOCK_GAP_S`, :func:`outage_cut_model`); the padding of a window cut short by one (``real`` False) is fitted at no offset.
+    speed check's scale fit's :data:`MAX_CLOCK_GAP_S`, :func:`outage_cut_model`); the padding of a window cut short by one (``real`` False) is fitted at no offset.
     ``t_pings``: the stamps of every ping it was built from (s), in the windows or not (the clock search's span,
     period and gaps)."""
 
@@ -377,10 +376,13 @@ def dvl_window_model(imu, dvl, config=None, lever_arm_b=None, window_pings: int 
 def outage_cut_model(imu, dvl, config=None, **kwargs) -> _WindowModel:
     """:func:`dvl_window_model` (its arguments) with its windows cut at steps between pings over
     :data:`MAX_CLOCK_GAP_S`, or over :data:`MAX_WINDOW_GAP_S` where the shorter cut leaves under two windows (a DVL
-    pinging in bursts between pauses): the clock search's model and the DVL checks'. Across a 7 s outage a 20 s
-    window's ``int omega x v`` holds the velocity through it: a 60 s A-KIT piece (Trajectory3 from 120 s, 6 pings
-    dropped after the 37th, a day off) fitted its speed 1.48x the IMU's 9.5 s off its clock and was refused as in a
-    wrong unit; cut at 5 s, 1.12x at -0.5 s."""
+    pinging in bursts between pauses): the clock search's model and the one the DVL speed check fits its scale on
+    (:func:`graphnav.calibration.dvl_scale.check_dvl_frame`). Across a 7 s outage a 20 s window's ``int omega x v``
+    holds the velocity through it: a 60 s A-KIT piece (Trajectory3 from 120 s, 6 pings dropped after the 37th, a day
+    off) fitted its speed 1.48x the IMU's 9.5 s off its clock and was refused as in a wrong unit; cut at 5 s, 1.12x at
+    -0.5 s. The turn fit keeps the 20 s windows no such step crosses (:data:`MAX_TURN_GAP_S`): on the shorter windows
+    the cut leaves, a 60 s piece with a 10-ping outage (Trajectory5 from 240 s) fitted a 13 deg turn (sigma 8 deg)
+    and was refused as a yawed DVL."""
     model, _ = dvl_window_model(imu, dvl, config, max_gap_s=MAX_CLOCK_GAP_S, **kwargs)
     if len(model.t) >= 2:
         return model
