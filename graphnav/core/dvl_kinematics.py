@@ -228,7 +228,8 @@ class _WindowModel:
     (``trim`` True, the clock search's: a window reaching past the IMU's end by a ping keeps its other pings, so
     offsets a few seconds apart score nearly the same pings and none wins by leaving out a window it explains
     badly). No window spans a gap of more than ``max_gap_s`` (:data:`MAX_WINDOW_GAP_S`; the clock search's and the
-    speed check's scale fit's :data:`MAX_CLOCK_GAP_S`, :func:`outage_cut_model`); the padding of a window cut short by one (``real`` False) is fitted at no offset.
+    speed check's scale fit's :data:`MAX_CLOCK_GAP_S`, :func:`outage_cut_model`); the padding of a window cut short
+    by one (``real`` False) is fitted at no offset.
     ``t_pings``: the stamps of every ping it was built from (s), in the windows or not (the clock search's span,
     period and gaps)."""
 
@@ -377,12 +378,12 @@ def outage_cut_model(imu, dvl, config=None, **kwargs) -> _WindowModel:
     """:func:`dvl_window_model` (its arguments) with its windows cut at steps between pings over
     :data:`MAX_CLOCK_GAP_S`, or over :data:`MAX_WINDOW_GAP_S` where the shorter cut leaves under two windows (a DVL
     pinging in bursts between pauses): the clock search's model and the one the DVL speed check fits its scale on
-    (:func:`graphnav.calibration.dvl_scale.check_dvl_frame`). Across a 7 s outage a 20 s window's ``int omega x v``
-    holds the velocity through it: a 60 s A-KIT piece (Trajectory3 from 120 s, 6 pings dropped after the 37th, a day
-    off) fitted its speed 1.48x the IMU's 9.5 s off its clock and was refused as in a wrong unit; cut at 5 s, 1.12x at
-    -0.5 s. The turn fit keeps the 20 s windows no such step crosses (:data:`MAX_TURN_GAP_S`): on the shorter windows
-    the cut leaves, a 60 s piece with a 10-ping outage (Trajectory5 from 240 s) fitted a 13 deg turn (sigma 8 deg)
-    and was refused as a yawed DVL."""
+    (:func:`graphnav.calibration.dvl_scale.check_velocity_against_imu`). Across a 7 s outage a 20 s window's
+    ``int omega x v`` holds the velocity through it: a 60 s A-KIT piece (Trajectory3 from 120 s, 6 pings dropped after
+    the 37th, a day off) fitted its speed 1.48x the IMU's 9.5 s off its clock and was refused as in a wrong unit; cut
+    at 5 s, 1.12x at -0.5 s. The turn fit keeps the 20 s windows no such step crosses (:data:`MAX_TURN_GAP_S`): on
+    the shorter windows the cut leaves, a 60 s piece with a 10-ping outage (Trajectory5 from 240 s) fitted a 13 deg
+    turn (sigma 8 deg) and was refused as a yawed DVL."""
     model, _ = dvl_window_model(imu, dvl, config, max_gap_s=MAX_CLOCK_GAP_S, **kwargs)
     if len(model.t) >= 2:
         return model
