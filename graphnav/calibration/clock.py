@@ -43,8 +43,8 @@ from scipy.stats import norm, wilcoxon
 
 from graphnav.calibration.reference import _sigma_from_curvature
 from graphnav.core.dvl_kinematics import (COARSE_MAX_WINDOWS, MAX_CLOCK_GAP_S, MAX_WINDOW_GAP_S, MIN_OVERLAP_S,
-                                          dvl_window_model, gaps_said, offset_grid, outage_cut_model, search_overlap,
-                                          still_velocity_said, with_enough_pings)
+                                          dvl_window_model, gaps_said, offset_grid, search_overlap, still_velocity_said,
+                                          with_enough_pings)
 from graphnav.core.errors import DataError
 from graphnav.core.streams import add_note, count_doubted, set_span
 from graphnav.core.timeseries import cumulative_integral, interp_rows, on_the_imu_clock, overlap_text
@@ -254,7 +254,8 @@ def clock_model(imu, dvl, config=None, lever_arm_b=None, window_pings: int | Non
     Raises:
         DataError: fewer than two windows of pings with a velocity.
     """
-    return outage_cut_model(imu, dvl, config, lever_arm_b=lever_arm_b, window_pings=window_pings, trim=True)
+    model, _ = dvl_window_model(imu, dvl, config, lever_arm_b, window_pings, trim=True, max_gap_s=MAX_CLOCK_GAP_S)
+    return model if len(model.t) >= 2 else _across_short_gaps_model(imu, dvl, config, model)
 
 
 def _across_short_gaps_model(imu, dvl, config, model):
