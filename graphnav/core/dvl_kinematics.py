@@ -375,8 +375,8 @@ def dvl_window_model(imu, dvl, config=None, lever_arm_b=None, window_pings: int 
 
 
 def outage_cut_model(imu, dvl, config=None, **kwargs) -> _WindowModel:
-    """:func:`dvl_window_model` (its arguments) with its windows cut at steps between pings over :data:`MAX_CLOCK_GAP_S`,
-    or over :data:`MAX_WINDOW_GAP_S` where the shorter cut leaves under two windows (a DVL pinging in bursts between
+    """:func:`dvl_window_model` (its arguments) with its windows cut at steps between pings over
+    :data:`MAX_CLOCK_GAP_S`, or over :data:`MAX_WINDOW_GAP_S` where the shorter cut leaves under two windows (a DVL pinging in bursts between
     pauses), as the clock search's (:func:`graphnav.calibration.clock.clock_model`): the model the DVL speed check
     fits its scale on (:func:`graphnav.calibration.dvl_scale.check_velocity_against_imu`). Across a 7 s outage a 20
     s window's ``int omega x v`` holds the velocity through it: a 60 s A-KIT piece (Trajectory3 from 120 s, 6 pings
