@@ -376,12 +376,12 @@ def dvl_window_model(imu, dvl, config=None, lever_arm_b=None, window_pings: int 
 
 def outage_cut_model(imu, dvl, config=None, **kwargs) -> _WindowModel:
     """:func:`dvl_window_model` (its arguments) with its windows cut at steps between pings over
-    :data:`MAX_CLOCK_GAP_S`, or over :data:`MAX_WINDOW_GAP_S` where the shorter cut leaves under two windows (a DVL pinging in bursts between
-    pauses), as the clock search's (:func:`graphnav.calibration.clock.clock_model`): the model the DVL speed check
-    fits its scale on (:func:`graphnav.calibration.dvl_scale.check_velocity_against_imu`). Across a 7 s outage a 20
-    s window's ``int omega x v`` holds the velocity through it: a 60 s A-KIT piece (Trajectory3 from 120 s, 6 pings
-    dropped after the 37th, a day off) fitted its speed 1.48x the IMU's 9.5 s off its clock and was refused as in a
-    wrong unit; cut at 5 s, 1.12x at -0.5 s. The turn fit keeps the 20 s windows no such step crosses
+    :data:`MAX_CLOCK_GAP_S`, or over :data:`MAX_WINDOW_GAP_S` where the shorter cut leaves under two windows (a DVL
+    pinging in bursts between pauses), as the clock search's (:func:`graphnav.calibration.clock.clock_model`): the model
+    the DVL speed check fits its scale on (:func:`graphnav.calibration.dvl_scale.check_velocity_against_imu`). Across a
+    7 s outage a 20 s window's ``int omega x v`` holds the velocity through it: a 60 s A-KIT piece (Trajectory3 from 120
+    s, 6 pings dropped after the 37th, a day off) fitted its speed 1.48x the IMU's 9.5 s off its clock and was refused
+    as in a wrong unit; cut at 5 s, 1.12x at -0.5 s. The turn fit keeps the 20 s windows no such step crosses
     (:data:`MAX_TURN_GAP_S`): on the shorter windows the cut leaves, a 60 s piece with a 10-ping outage (Trajectory5
     from 240 s) fitted a 13 deg turn (sigma 8 deg) and was refused as a yawed DVL."""
     model, _ = dvl_window_model(imu, dvl, config, max_gap_s=MAX_CLOCK_GAP_S, **kwargs)
