@@ -383,3 +383,23 @@ def test_the_same_vehicle_whose_dvl_y_is_right_loads_on_its_clock(tmp_path, late
         warnings.simplefilter("ignore")
         got = load_mission(*folder)
     assert got.config.dvl_time_offset_s == pytest.approx(-late_s, abs=1.0)
+
+
+def test_a_short_akit_piece_a_day_off_with_an_outage_is_not_judged_in_a_wrong_unit_across_it(akit_dir, tmp_path):
+    """Trajectory3's 60 s from 120 s without GT, 6 DVL rows dropped after the 37th (a 7 s step), its stamps a day off:
+    the clock search (its windows cut at steps over 5 s) placed it, but the speed check's windows were cut only at
+    steps over 20 s, one spanned the outage (its ``int omega x v`` holding the velocity through it), and its best fit,
+    9.5 s off the clock found, read the speed 1.48x the IMU's: refused as a velocity in a unit 1.48x m/s. Its scale is
+    fitted on windows cut where the clock search's are: the piece loads with its pings where its GT puts them."""
+    from graphnav.missions import load_mission
+    from test_dvl_frame import _akit_crop_without_gt
+    with_gt = _akit_crop_without_gt(akit_dir / "Trajectory3", tmp_path / "gt", np.eye(3), 60.0, 120.0, gt=True)
+    moved = _akit_crop_without_gt(akit_dir / "Trajectory3", tmp_path / "moved", np.eye(3), 60.0, 120.0,
+                                  dvl_shift=86400.0, dvl_outage=(37, 6))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        truth = load_mission(with_gt)
+        got = load_mission(moved)
+    kept = np.delete(truth.dvl.t, np.arange(37, 43))
+    assert len(got.dvl.t) == len(kept)
+    np.testing.assert_allclose(got.dvl.t, kept, atol=0.1)

@@ -25,7 +25,8 @@ from graphnav.calibration.axes import TURN_ADVICE, mounting_text
 from graphnav.calibration.clock import COARSE_MAX_WINDOWS
 from graphnav.core.dvl_kinematics import (MIN_SCALE_R2, SCALE_OFFSETS_S, SCALE_SEARCH_S, WINDOW_S, best_speed_fit,
                                           centred, dvl_velocity_b, dvl_window_model, fits_turned_elsewhere,
-                                          imu_integrals, speed_scale, turn_at, turn_fit, within_half_turn)
+                                          imu_integrals, outage_cut_model, speed_scale, turn_at, turn_fit,
+                                          within_half_turn)
 from graphnav.core.errors import DataError
 from graphnav.core.streams import add_note, count_doubted, say_doubted
 from graphnav.io.dvl_frame import (CARRIED, EARTH_FRAMES, KEPT_AS_DECLARED, KEPT_POINTING_OFF, check_not_earth_frame,
@@ -1015,9 +1016,11 @@ def check_velocity_against_imu(imu, dvl, config, meta: dict, moved: bool = False
         or_dvl_y = ""
     else:
         or_dvl_y = check_dvl_y(imu, dvl, config, meta, model, field, fixes)
-    best, fits = best_speed_fit(model, SCALE_OFFSETS_S)
+    # the scale over windows cut where the clock search's are (MAX_CLOCK_GAP_S): a window across a 7 s outage holds
+    # the velocity through it, and a 60 s A-KIT piece a day off fitted 1.48x 9.5 s off the clock found there
+    best, fits = best_speed_fit(outage_cut_model(imu, dvl, config, ints=model.imu), SCALE_OFFSETS_S)
     scale, r2, _ = fits[best]
-    # the turn over the windows no outage crosses (MAX_TURN_GAP_S): the scale is a ratio an outage barely moves
+    # the turn over the windows no outage crosses (MAX_TURN_GAP_S), whose 20 s length its MAX_YAW_RAD was measured on
     _, turn_r2, yaw = speed_scale(model, SCALE_OFFSETS_S[best], gapless=True)
     if r2 >= MIN_SCALE_R2 and not 1 / MAX_SCALE_ERROR < scale < MAX_SCALE_ERROR:
         declared = meta.get("prepare", {}).get("dvl_unit")      # the key a declared unit is set under, to name

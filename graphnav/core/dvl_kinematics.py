@@ -42,7 +42,8 @@ MAX_WINDOW_GAP_S = WINDOW_S
 #: simulated logs a day off with 45 % of their pings lost in runs of 5 (6 s steps; seeds 0-5, with and without speed
 #: spikes): 5 of 12 refused with windows across the steps, all 12 found within 0.18 s cut at 5 s. Where this cut finds
 #: no confident offset, the clock search tries windows cut at MAX_WINDOW_GAP_S as well (a noisy DVL losing pings
-#: often: :func:`graphnav.calibration.clock.align_stream_clocks`). The turn fit's MAX_TURN_GAP_S is the same 5 s.
+#: often: :func:`graphnav.calibration.clock.align_stream_clocks`). The turn fit's MAX_TURN_GAP_S is the same 5 s, and
+#: the DVL speed check's scale is fitted on windows cut so too (:func:`outage_cut_model`).
 MAX_CLOCK_GAP_S = 5.0
 #: ... and any window model's, for a DVL pinging slower, at gaps over this many of its ping periods (the median step):
 #: a ping missed, not every step of its steady rate. A 1200 s simulated DVL thinned to a ping every 5 or 6 s, a day
@@ -250,8 +251,9 @@ class _WindowModel:
     DVL checks', whose offsets keep the DVL on the IMU), or those inside when at least :data:`MIN_WINDOW_PINGS`
     (``trim`` True, the clock search's: a window reaching past the IMU's end by a ping keeps its other pings, so
     offsets a few seconds apart score nearly the same pings and none wins by leaving out a window it explains
-    badly). No window spans a gap of more than ``max_gap_s`` (:data:`MAX_WINDOW_GAP_S`; the clock search's
-    :data:`MAX_CLOCK_GAP_S`); the padding of a window cut short by one (``real`` False) is fitted at no offset.
+    badly). No window spans a gap of more than ``max_gap_s`` (:data:`MAX_WINDOW_GAP_S`; the clock search's and the
+    speed check's scale fit's :data:`MAX_CLOCK_GAP_S`, :func:`outage_cut_model`); the padding of a window cut short
+    by one (``real`` False) is fitted at no offset.
     ``t_pings``: the stamps of every ping it was built from (s), in the windows or not (the clock search's span,
     period and gaps)."""
 
@@ -393,6 +395,22 @@ def dvl_window_model(imu, dvl, config=None, lever_arm_b=None, window_pings: int 
     # a DVL pinging slower is cut at a missed ping, not at every step
     max_gap_s = max(max_gap_s, GAP_PERIODS * period) if np.isfinite(period) else max_gap_s
     return _WindowModel(ints, t_dvl, v, np.asarray(lever_arm_b, float), window, trim, max_gap_s), t_dvl
+
+
+def outage_cut_model(imu, dvl, config=None, **kwargs) -> _WindowModel:
+    """:func:`dvl_window_model` (its arguments) with its windows cut at steps between pings over
+    :data:`MAX_CLOCK_GAP_S`, or over :data:`MAX_WINDOW_GAP_S` where the shorter cut leaves under two windows (a DVL
+    pinging in bursts between pauses), as the clock search's (:func:`graphnav.calibration.clock.clock_model`): the model
+    the DVL speed check fits its scale on (:func:`graphnav.calibration.dvl_scale.check_velocity_against_imu`). Across a
+    7 s outage a 20 s window's ``int omega x v`` holds the velocity through it: a 60 s A-KIT piece (Trajectory3 from 120
+    s, 6 pings dropped after the 37th, a day off) fitted its speed 1.48x the IMU's 9.5 s off its clock and was refused
+    as in a wrong unit; cut at 5 s, 1.12x at -0.5 s. The turn fit keeps the 20 s windows no such step crosses
+    (:data:`MAX_TURN_GAP_S`): on the shorter windows the cut leaves, a 60 s piece with a 10-ping outage (Trajectory5
+    from 240 s) fitted a 13 deg turn (sigma 8 deg) and was refused as a yawed DVL."""
+    model, _ = dvl_window_model(imu, dvl, config, max_gap_s=MAX_CLOCK_GAP_S, **kwargs)
+    if len(model.t) >= 2:
+        return model
+    return dvl_window_model(imu, dvl, config, max_gap_s=MAX_WINDOW_GAP_S, **{**kwargs, "ints": model.imu})[0]
 
 
 def search_overlap(span_imu: float, span_dvl: float, window_s: float, min_overlap_s: float = MIN_OVERLAP_S) -> float:
