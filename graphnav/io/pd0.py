@@ -40,10 +40,11 @@ then equals RDI's bottom-track beam velocity as recorded, and a convex head has 
   again byte for byte anywhere after itself (a logger's retry, a file appended to itself: the same ping twice,
   which dolfyn cannot read or reads as time running back).
 * ensembles stored out of time order are put in order by their own clock (the variable leader's RTC) when their
-  ensemble numbers agree, warned about and counted; a file whose clock and numbers disagree (a clock set back
-  mid-file, two different ensembles at one time, two recordings overlapping in time) is refused naming the
-  ensembles (:func:`_time_order` says why), and so is one of fewer than :data:`MIN_ENSEMBLES` ensembles, which
-  dolfyn cannot read.
+  ensemble numbers agree, warned about and counted; ensembles that share a time (a clock of 1 s resolution on an
+  instrument pinging faster) are ordered by their numbers; a file whose clock and numbers disagree (a clock set
+  back mid-file, two different ensembles with one time and one number, two recordings overlapping in time) is
+  refused naming the ensembles (:func:`_time_order` says why), and so is one of fewer than
+  :data:`MIN_ENSEMBLES` ensembles, which dolfyn cannot read.
 * depth from the pressure sensor (dbar -> m with the configured water density). A pressure word of
   0xFFFFFFFF (no sensor: 4.29e6 dbar) or a depth outside :data:`DEPTH_RANGE_M` is invalid, counted, warned. A
   pressure is positive down by its physics, so there is no convention to declare (``csv_columns.depth.positive`` is
@@ -220,47 +221,58 @@ def _leader(raw: bytes, start: int) -> tuple[int, float]:
 
 
 def _time_order(numbers: np.ndarray, t: np.ndarray, spans: list) -> tuple[np.ndarray, str, str]:
-    """The order (indexes into ``spans``) that puts the ensembles in time by their own clock ``t`` (Unix s), a note
-    of where the file first runs back in time, and why they cannot be ordered ("" when they can).
+    """The order (indexes into ``spans``) that puts the ensembles in time by their own clock ``t`` (Unix s) and,
+    at one time, by their numbers; a note of where the file first runs back in that order, and why the ensembles
+    cannot be ordered ("" when they can).
 
     An ensemble stored out of place (a logger that wrote its buffer out of order, files of one instrument joined
-    in the wrong order) is moved to its time: its clock and its number both say where it belongs. The order is
-    refused when the two disagree, as an AUV engineer would not guess: the clock runs back while the numbers run
-    on (the clock was set back mid-file; sorting by the clock would interleave two stretches of pings, sorting
-    by number would trust a clock known to be wrong), two different ensembles carry one time (which is the
-    instrument's cannot be told), sorting would interleave the numbers of two recordings that overlap in time, or
-    a clock that is no date has to be placed. A file that never runs back in time keeps its order.
+    in the wrong order) is moved to its time: its clock and its number both say where it belongs. Ensembles that
+    share a time (a clock of 1 s resolution, or one writing zero hundredths, on an instrument pinging faster than
+    1 Hz) are ordered by their numbers. The order is refused when the clock and the numbers disagree, as an AUV
+    engineer would not guess: the clock runs back while the numbers run on (the clock was set back mid-file;
+    sorting by the clock would interleave two stretches of pings, sorting by number would trust a clock known to
+    be wrong), two different ensembles carry one time and one number (which is the instrument's cannot be told),
+    sorting would interleave the numbers of two recordings that overlap in time, or a clock that is no date has to
+    be placed. A file that never runs back in time or in number within one time keeps its order.
     """
     order = np.arange(len(t))
     named = [f"ensemble {n} (byte {a})" for n, (a, _) in zip(numbers, spans)]
-    finite = np.isfinite(t)
-    known_t = np.sort(t[finite])
-    same = known_t[:-1][np.diff(known_t) == 0]
-    if len(same):
-        twins = np.flatnonzero(t == same[0])[:2]
-        return order, "", (f"{named[twins[0]]} and {named[twins[1]]} hold the same time ({_utc(t[twins[0]])}) but "
-                           "differ: which one the instrument recorded then cannot be told")
-    known = np.flatnonzero(finite)
-    back = known[:-1][np.diff(t[known]) < 0]
+    known = np.flatnonzero(np.isfinite(t))
+    by_time = known[np.lexsort((numbers[known], t[known]))]
+    twins = by_time[1:][(np.diff(t[by_time]) == 0) & (np.diff(numbers[by_time]) == 0)]
+    if len(twins):
+        i, j = sorted(np.flatnonzero((t == t[twins[0]]) & (numbers == numbers[twins[0]]))[:2])
+        return order, "", (f"{named[i]} and {named[j]} hold the same time ({_utc(t[i])}) and number but differ: "
+                           "which one the instrument recorded then cannot be told")
+    dt_s, dn = np.diff(t[known]), np.diff(numbers[known])
+    back = known[:-1][(dt_s < 0) | ((dt_s == 0) & (dn < 0))]
     if not len(back):
         return order, "", ""
     nxt = {int(i): int(j) for i, j in zip(known[:-1], known[1:])}
     i, j = int(back[0]), nxt[int(back[0])]
-    note = f"{named[j]} is {t[i] - t[j]:.2f} s before {named[i]} stored ahead of it"
-    if not finite.all():
-        bad = int(np.flatnonzero(~finite)[0])
+    note = (f"{named[j]} is {t[i] - t[j]:.2f} s before {named[i]} stored ahead of it" if t[j] < t[i] else
+            f"{named[j]} holds the time of {named[i]} stored ahead of it and an earlier number")
+    if len(known) < len(t):
+        bad = int(np.flatnonzero(~np.isfinite(t))[0])
         return order, note, f"{note}, and {named[bad]} has a clock that is no date: it cannot be placed in time"
     for i in back:
         j = nxt[int(i)]
-        if numbers[j] >= numbers[i]:
+        if t[j] < t[i] and numbers[j] >= numbers[i]:
             return order, note, (f"the clock runs back {t[i] - t[j]:.2f} s from {named[i]} to {named[j]} while the "
                                  "ensemble numbers run on: the instrument's clock was set back mid-file, so the "
                                  "ensembles cannot be placed in time")
-    order = np.argsort(t, kind="stable")
-    if (np.diff(numbers[order]) <= 0).sum() > (np.diff(numbers) <= 0).sum():     # a number not after the one before
-        return np.arange(len(t)), note, (f"{note}, and in time order the ensemble numbers would interleave: two "
-                                         "recordings that overlap in time, which cannot be told apart")
-    return order, note, ""
+    # a number not after the one before it: the time order may add none (two recordings would interleave); at one
+    # time the file's order is kept where the numbers' order would add one (a restart or roll-over in that second)
+    for candidate in (by_time, np.argsort(t, kind="stable")):
+        if _numbers_back(numbers[candidate]) <= _numbers_back(numbers):
+            return candidate, (note if (candidate != order).any() else ""), ""
+    return order, note, (f"{note}, and in time order the ensemble numbers would interleave: two recordings that "
+                         "overlap in time, which cannot be told apart")
+
+
+def _numbers_back(numbers: np.ndarray) -> int:
+    """How many ensemble numbers are not after the one before them (restarts, roll-overs without the high byte)."""
+    return int((np.diff(numbers) <= 0).sum())
 
 
 def _utc(t: float) -> str:
