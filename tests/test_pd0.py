@@ -519,7 +519,8 @@ def test_a_pd0_file_of_one_or_two_ensembles_is_refused_in_graphnav_words(sim, tm
 def test_a_dvl_pinging_faster_than_its_clock_ticks_reads_in_the_order_of_its_ensemble_numbers(sim, tmp_path):
     """A clean file from an instrument pinging at 2 Hz whose clock gives whole seconds (zero hundredths): two
     ensembles share each time. It reads in file order without a word on the order (it was refused: "hold the same
-    time but differ"); two swapped within one second are put back by their numbers, warned and counted."""
+    time but differ"); two swapped within one second are put back by their numbers, warned and counted; numbers
+    that restart within one second keep the file's order."""
     sorted_key = "ensemble stored out of time order (sorted)"        # pd0.SORTED_ENSEMBLE
     mission, _ = sim
     t_s = np.floor(mission.dvl.t / 2.0)
@@ -544,3 +545,26 @@ def test_a_dvl_pinging_faster_than_its_clock_ticks_reads_in_the_order_of_its_ens
     np.testing.assert_array_equal(log.t, clean.t)
     np.testing.assert_array_equal(log.beams, clean.beams)
     assert log.counts == {**clean.counts, sorted_key: 2}
+    # numbers restarting at 1 within one second (the instrument restarted): the file's order is kept, not the
+    # numbers' (which would put ensemble 1 before the two ahead of it)
+    beams = np.where(mission.dvl.valid, np.round(mission.dvl.beams * 1000.0), -32768)
+    numbers = np.r_[np.arange(1, 12), np.arange(1, len(t_s) - 10)]
+    path.write_bytes(b"".join(_ensemble(int(n), START + dt.timedelta(seconds=float(s)), b, 1000)
+                              for n, s, b in zip(numbers, t_s, beams)))
+    restarted = _quiet_read(path)
+    assert sorted_key not in restarted.counts
+    np.testing.assert_array_equal(restarted.t, clean.t)
+    np.testing.assert_array_equal(restarted.beams, clean.beams)
+
+
+def test_a_pd0_file_across_the_turn_of_1999_reads_in_the_order_of_its_y2k_clock(sim, tmp_path):
+    """A clean file recorded across midnight of 1999-12-31 (a Workhorse's variable leader gives the century in its
+    Y2K clock, which dolfyn reads): its pings read in file order at their stamps. The order was taken from the
+    two-digit year as 20YY, so 2099 ran back to 2000 and the file was refused as a clock set back mid-file."""
+    mission, _ = sim
+    start = dt.datetime(1999, 12, 31, 23, 59, 50, tzinfo=dt.timezone.utc)
+    beams = np.where(mission.dvl.valid, np.round(mission.dvl.beams * 1000.0), -32768)[:20]
+    path = tmp_path / "dvl.000"
+    path.write_bytes(b"".join(_ensemble(k + 1, start + dt.timedelta(seconds=k), beams[k], 1000) for k in range(20)))
+    log = _quiet_read(path)
+    np.testing.assert_allclose(log.t, start.timestamp() + np.arange(19), atol=1e-6)
