@@ -475,7 +475,7 @@ def test_ensembles_copied_anywhere_in_the_file_are_read_once(sim, tmp_path, dama
 def test_ensembles_that_cannot_be_put_in_time_order_are_refused_naming_them(sim, tmp_path):
     """Where the clock and the ensemble numbers disagree, the file is refused naming the ensembles (it was read in
     file order without a word): a clock set back mid-file while the numbers run on, two different ensembles at one
-    time, and two recordings overlapping in time whose numbers would interleave."""
+    time with one number, and two recordings overlapping in time whose numbers would interleave."""
     from graphnav.core.errors import DataError
     mission, root = sim
     t, size = mission.dvl.t, len(_ensembles_of(root / "dvl.000")[0])
@@ -486,9 +486,11 @@ def test_ensembles_that_cannot_be_put_in_time_order_are_refused_naming_them(sim,
                                         rf"back {t[19] - back[20]:.2f} s from ensemble 20 \(byte {19 * size}\) to "
                                         rf"ensemble 21 \(byte {20 * size}\) while the ensemble numbers run on"):
         read_pd0_log(path)
-    write_pd0(path, mission, t_s=np.where(np.arange(len(t)) == 21, t[20], t))
-    with pytest.raises(DataError, match=rf"ensemble 21 \(byte {20 * size}\) and ensemble 22 \(byte {21 * size}\) "
-                                        "hold the same time"):
+    write_pd0(tmp_path / "b.000", mission, raw_mms=np.full((len(t), 4), 100))     # other beams, same numbers
+    ens, other = _ensembles_of(root / "dvl.000"), _ensembles_of(tmp_path / "b.000")
+    path.write_bytes(b"".join(ens[:21] + [other[20]] + ens[21:]))
+    with pytest.raises(DataError, match=rf"ensemble 21 \(byte {20 * size}\) and ensemble 21 \(byte {21 * size}\) "
+                                        "hold the same time .* and number but differ"):
         read_pd0_log(path)
     write_pd0(tmp_path / "b.000", mission, t_s=t + 0.25)
     path.write_bytes((root / "dvl.000").read_bytes() + (tmp_path / "b.000").read_bytes())
@@ -512,3 +514,57 @@ def test_a_pd0_file_of_one_or_two_ensembles_is_refused_in_graphnav_words(sim, tm
         read_pd0_log(path)
     path.write_bytes(b"".join(ens[:3]))
     assert len(_quiet_read(path).t) == 2
+
+
+def test_a_dvl_pinging_faster_than_its_clock_ticks_reads_in_the_order_of_its_ensemble_numbers(sim, tmp_path):
+    """A clean file from an instrument pinging at 2 Hz whose clock gives whole seconds (zero hundredths): two
+    ensembles share each time. It reads in file order without a word on the order (it was refused: "hold the same
+    time but differ"); two swapped within one second are put back by their numbers, warned and counted; numbers
+    that restart within one second keep the file's order."""
+    sorted_key = "ensemble stored out of time order (sorted)"        # pd0.SORTED_ENSEMBLE
+    mission, _ = sim
+    t_s = np.floor(mission.dvl.t / 2.0)
+    path = tmp_path / "dvl.000"
+    write_pd0(path, mission, t_s=t_s)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        clean = read_pd0_log(path)
+    assert not [w for w in caught if "time order" in str(w.message)] and sorted_key not in clean.counts
+    np.testing.assert_array_equal(clean.t, START.timestamp() + t_s[:-1])
+    ens = _ensembles_of(path)
+    size = len(ens[0])
+    assert t_s[10] == t_s[11] and not np.array_equal(clean.beams[10], clean.beams[11], equal_nan=True)
+    path.write_bytes(b"".join(ens[:10] + [ens[11], ens[10]] + ens[12:]))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        log = read_pd0_log(path)
+    said = [str(w.message) for w in caught if "out of time order" in str(w.message)]
+    assert said and said[0].startswith(f"{path}: 2 ensemble(s) stored out of time order (ensemble 11 (byte "
+                                       f"{11 * size}) holds the time of ensemble 12 (byte {10 * size}) stored ahead "
+                                       "of it and an earlier number)")
+    np.testing.assert_array_equal(log.t, clean.t)
+    np.testing.assert_array_equal(log.beams, clean.beams)
+    assert log.counts == {**clean.counts, sorted_key: 2}
+    # numbers restarting at 1 within one second (the instrument restarted): the file's order is kept, not the
+    # numbers' (which would put ensemble 1 before the two ahead of it)
+    beams = np.where(mission.dvl.valid, np.round(mission.dvl.beams * 1000.0), -32768)
+    numbers = np.r_[np.arange(1, 12), np.arange(1, len(t_s) - 10)]
+    path.write_bytes(b"".join(_ensemble(int(n), START + dt.timedelta(seconds=float(s)), b, 1000)
+                              for n, s, b in zip(numbers, t_s, beams)))
+    restarted = _quiet_read(path)
+    assert sorted_key not in restarted.counts
+    np.testing.assert_array_equal(restarted.t, clean.t)
+    np.testing.assert_array_equal(restarted.beams, clean.beams)
+
+
+def test_a_pd0_file_across_the_turn_of_1999_reads_in_the_order_of_its_y2k_clock(sim, tmp_path):
+    """A clean file recorded across midnight of 1999-12-31 (a Workhorse's variable leader gives the century in its
+    Y2K clock, which dolfyn reads): its pings read in file order at their stamps. The order was taken from the
+    two-digit year as 20YY, so 2099 ran back to 2000 and the file was refused as a clock set back mid-file."""
+    mission, _ = sim
+    start = dt.datetime(1999, 12, 31, 23, 59, 50, tzinfo=dt.timezone.utc)
+    beams = np.where(mission.dvl.valid, np.round(mission.dvl.beams * 1000.0), -32768)[:20]
+    path = tmp_path / "dvl.000"
+    path.write_bytes(b"".join(_ensemble(k + 1, start + dt.timedelta(seconds=k), beams[k], 1000) for k in range(20)))
+    log = _quiet_read(path)
+    np.testing.assert_allclose(log.t, start.timestamp() + np.arange(19), atol=1e-6)

@@ -40,10 +40,11 @@ then equals RDI's bottom-track beam velocity as recorded, and a convex head has 
   again byte for byte anywhere after itself (a logger's retry, a file appended to itself: the same ping twice,
   which dolfyn cannot read or reads as time running back).
 * ensembles stored out of time order are put in order by their own clock (the variable leader's RTC) when their
-  ensemble numbers agree, warned about and counted; a file whose clock and numbers disagree (a clock set back
-  mid-file, two different ensembles at one time, two recordings overlapping in time) is refused naming the
-  ensembles (:func:`_time_order` says why), and so is one of fewer than :data:`MIN_ENSEMBLES` ensembles, which
-  dolfyn cannot read.
+  ensemble numbers agree, warned about and counted; ensembles that share a time (a clock of 1 s resolution on an
+  instrument pinging faster) are ordered by their numbers; a file whose clock and numbers disagree (a clock set
+  back mid-file, two different ensembles with one time and one number, two recordings overlapping in time) is
+  refused naming the ensembles (:func:`_time_order` says why), and so is one of fewer than
+  :data:`MIN_ENSEMBLES` ensembles, which dolfyn cannot read.
 * depth from the pressure sensor (dbar -> m with the configured water density). A pressure word of
   0xFFFFFFFF (no sensor: 4.29e6 dbar) or a depth outside :data:`DEPTH_RANGE_M` is invalid, counted, warned. A
   pressure is positive down by its physics, so there is no convention to declare (``csv_columns.depth.positive`` is
@@ -202,8 +203,9 @@ def scan_pd0(path: str | Path) -> Pd0Scan:
 def _leader(raw: bytes, start: int) -> tuple[int, float]:
     """(ensemble number, time in Unix s) of the ensemble at ``start`` as its variable leader (block 0x0080) gives
     them: the number's low word (bytes 2-3) and high byte (byte 11), and the real-time clock (bytes 4-10: year of
-    the century, month, day, hour, minute, second, hundredths; years read as 20YY as dolfyn does); (-1, NaN)
-    without a variable leader, NaN for a clock that is no date."""
+    the century, month, day, hour, minute, second, hundredths); the century is the Y2K clock's (byte 57, before
+    the same seven bytes again: Workhorse firmware from 16.05, read so by dolfyn) or else 20, as dolfyn reads it;
+    (-1, NaN) without a variable leader, NaN for a clock that is no date."""
     try:
         offsets = struct.unpack_from(f"<{raw[start + 5]}H", raw, start + 6)
         off = next(start + o for o in offsets if struct.unpack_from("<H", raw, start + o)[0] == 0x0080)
@@ -211,8 +213,10 @@ def _leader(raw: bytes, start: int) -> tuple[int, float]:
         y, mo, d, h, mi, s, hundredths = raw[off + 4:off + 11]
     except (StopIteration, struct.error, ValueError, IndexError):     # a block that runs past the file
         return -1, float("nan")
+    y2k = raw[off + 57:off + 65]
+    century = y2k[0] if len(y2k) == 8 and y2k[1:] == raw[off + 4:off + 11] else 20
     try:
-        when = datetime.datetime(2000 + y if y < 100 else y, mo, d, h, mi, s, hundredths * 10000,
+        when = datetime.datetime(100 * century + y if y < 100 else y, mo, d, h, mi, s, hundredths * 10000,
                                  tzinfo=datetime.timezone.utc)
     except ValueError:
         return number, float("nan")
@@ -220,47 +224,85 @@ def _leader(raw: bytes, start: int) -> tuple[int, float]:
 
 
 def _time_order(numbers: np.ndarray, t: np.ndarray, spans: list) -> tuple[np.ndarray, str, str]:
-    """The order (indexes into ``spans``) that puts the ensembles in time by their own clock ``t`` (Unix s), a note
-    of where the file first runs back in time, and why they cannot be ordered ("" when they can).
+    """The order (indexes into ``spans``) that puts the ensembles in time by their own clock ``t`` (Unix s) and,
+    at one time, by their numbers; a note of where the file first runs back in that order, and why the ensembles
+    cannot be ordered ("" when they can).
 
     An ensemble stored out of place (a logger that wrote its buffer out of order, files of one instrument joined
-    in the wrong order) is moved to its time: its clock and its number both say where it belongs. The order is
-    refused when the two disagree, as an AUV engineer would not guess: the clock runs back while the numbers run
-    on (the clock was set back mid-file; sorting by the clock would interleave two stretches of pings, sorting
-    by number would trust a clock known to be wrong), two different ensembles carry one time (which is the
-    instrument's cannot be told), sorting would interleave the numbers of two recordings that overlap in time, or
-    a clock that is no date has to be placed. A file that never runs back in time keeps its order.
+    in the wrong order) is moved to its time: its clock and its number both say where it belongs. Ensembles that
+    share a time (a clock of 1 s resolution, or one writing zero hundredths, on an instrument pinging faster than
+    1 Hz) are ordered by their numbers (:func:`_in_time`). The order is refused when the clock and the numbers
+    disagree, as an AUV engineer would not guess: the clock runs back while the numbers run on (the clock was set
+    back mid-file; sorting by the clock would interleave two stretches of pings, sorting by number would trust a
+    clock known to be wrong), two different ensembles carry one time and one number (which is the instrument's
+    cannot be told), sorting would interleave the numbers of two recordings that overlap in time, or a clock that
+    is no date has to be placed. A file that never runs back in time or in number within one time keeps its order.
     """
     order = np.arange(len(t))
     named = [f"ensemble {n} (byte {a})" for n, (a, _) in zip(numbers, spans)]
-    finite = np.isfinite(t)
-    known_t = np.sort(t[finite])
-    same = known_t[:-1][np.diff(known_t) == 0]
-    if len(same):
-        twins = np.flatnonzero(t == same[0])[:2]
-        return order, "", (f"{named[twins[0]]} and {named[twins[1]]} hold the same time ({_utc(t[twins[0]])}) but "
-                           "differ: which one the instrument recorded then cannot be told")
-    known = np.flatnonzero(finite)
-    back = known[:-1][np.diff(t[known]) < 0]
+    known = np.flatnonzero(np.isfinite(t))
+    by_time = known[np.lexsort((numbers[known], t[known]))]          # one time and one number side by side
+    twins = by_time[1:][(np.diff(t[by_time]) == 0) & (np.diff(numbers[by_time]) == 0)]
+    if len(twins):
+        i, j = sorted(np.flatnonzero((t == t[twins[0]]) & (numbers == numbers[twins[0]]))[:2])
+        return order, "", (f"{named[i]} and {named[j]} hold the same time ({_utc(t[i])}) and number but differ: "
+                           "which one the instrument recorded then cannot be told")
+    dt_s, dn = np.diff(t[known]), np.diff(numbers[known])
+    back = known[:-1][(dt_s < 0) | ((dt_s == 0) & (dn < 0))]
     if not len(back):
         return order, "", ""
     nxt = {int(i): int(j) for i, j in zip(known[:-1], known[1:])}
-    i, j = int(back[0]), nxt[int(back[0])]
-    note = f"{named[j]} is {t[i] - t[j]:.2f} s before {named[i]} stored ahead of it"
-    if not finite.all():
-        bad = int(np.flatnonzero(~finite)[0])
+    note = _back_note(named, t, int(back[0]), nxt[int(back[0])])
+    if len(known) < len(t):
+        bad = int(np.flatnonzero(~np.isfinite(t))[0])
         return order, note, f"{note}, and {named[bad]} has a clock that is no date: it cannot be placed in time"
     for i in back:
         j = nxt[int(i)]
-        if numbers[j] >= numbers[i]:
+        if t[j] < t[i] and numbers[j] >= numbers[i]:
             return order, note, (f"the clock runs back {t[i] - t[j]:.2f} s from {named[i]} to {named[j]} while the "
                                  "ensemble numbers run on: the instrument's clock was set back mid-file, so the "
                                  "ensembles cannot be placed in time")
+    in_time = _in_time(numbers, t)
+    if _numbers_back(numbers[in_time]) > _numbers_back(numbers):       # a number not after the one before it
+        return order, note, (f"{note}, and in time order the ensemble numbers would interleave: two recordings "
+                             "that overlap in time, which cannot be told apart")
+    moved = in_time != order
+    if not moved.any():            # only restarts or roll-overs within one second: the file's order is the time's
+        return order, "", ""
+    i = next(int(i) for i in back if moved[i] or moved[nxt[int(i)]])
+    return in_time, _back_note(named, t, i, nxt[i]), ""
+
+
+def _back_note(named: list, t: np.ndarray, i: int, j: int) -> str:
+    """Where the file runs back from ensemble ``i`` to ``j`` stored after it, in time or (at one time) in number."""
+    if t[j] < t[i]:
+        return f"{named[j]} is {t[i] - t[j]:.2f} s before {named[i]} stored ahead of it"
+    return f"{named[j]} holds the time of {named[i]} stored ahead of it and an earlier number"
+
+
+def _in_time(numbers: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """Indexes that put the clock ``t`` in order; ensembles at one time in the file's order, or in their numbers'
+    where that leaves fewer numbers not after the one before them, with the ensembles either side (a swap within
+    one second is undone; a restart at 1 or a roll-over without the high byte within one second is kept)."""
     order = np.argsort(t, kind="stable")
-    if (np.diff(numbers[order]) <= 0).sum() > (np.diff(numbers) <= 0).sum():     # a number not after the one before
-        return np.arange(len(t)), note, (f"{note}, and in time order the ensemble numbers would interleave: two "
-                                         "recordings that overlap in time, which cannot be told apart")
-    return order, note, ""
+    t_in, n_in = t[order], numbers[order]
+    starts = np.flatnonzero(np.r_[True, t_in[1:] != t_in[:-1]])
+    ends = np.r_[starts[1:], len(order)]
+    for a in np.unique(np.searchsorted(starts, np.flatnonzero((t_in[1:] == t_in[:-1]) & (n_in[1:] <= n_in[:-1])),
+                                       side="right") - 1):
+        first, last = starts[a], ends[a]
+        group = order[first:last]
+        by_number = group[np.argsort(numbers[group], kind="stable")]
+        before, after = order[max(first - 1, 0):first], order[last:last + 1]
+        as_filed, as_numbered = (numbers[np.r_[before, g, after]] for g in (group, by_number))
+        if _numbers_back(as_numbered) < _numbers_back(as_filed):
+            order[first:last] = by_number
+    return order
+
+
+def _numbers_back(numbers: np.ndarray) -> int:
+    """How many ensemble numbers are not after the one before them (restarts, roll-overs without the high byte)."""
+    return int((np.diff(numbers) <= 0).sum())
 
 
 def _utc(t: float) -> str:
