@@ -1044,6 +1044,66 @@ def test_an_imu_header_clock_stepping_while_the_messages_keep_arriving_is_moved_
     assert bag_convert.HEADER_CLOCK_STEP not in m.meta["streams"]["imu"].get("doubted", {})
 
 
+def test_a_header_clock_step_every_topic_shares_moves_them_all_back_with_the_imu(sim, tmp_path):
+    """A time-sync unit (or the vehicle computer stamping every sensor) steps every topic's header clock +5 s half-way
+    while the recorder's receive clock runs on: the IMU was moved back alone, the DVL, depth and reference left 5 s
+    off it for the second half (the DVL's velocity compared with the IMU's of 5 s before). Now each topic whose header
+    minus receive time steps with the IMU's moves back with it, warned naming the topic and message, counted as
+    doubted; a topic on a clock of its own that did not step is left as it is."""
+    from rosbags.highlevel import AnyReader
+
+    from graphnav.io import bag_convert
+    mission, config, paths, _ = sim
+    t_step_ns = T0_NS + int(mission.imu.t[mission.imu.t.size // 2] * 1e9)
+    store = bags.typestore()
+
+    def stepped(name, which):
+        rows = []
+        with AnyReader([paths["mcap"]], default_typestore=store) as reader:
+            for conn, t_ns, raw in reader.messages():
+                msg = store.deserialize_cdr(raw, conn.msgtype)
+                if t_ns >= t_step_ns and which(conn.topic) and hasattr(msg, "header"):
+                    ns = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec + 5_000_000_000
+                    msg.header.stamp.sec, msg.header.stamp.nanosec = ns // 1_000_000_000, ns % 1_000_000_000
+                rows.append((conn.topic, conn.msgtype, t_ns, msg))
+        return _bag_with(tmp_path, name, sorted(rows, key=lambda r: r[2]), store)
+
+    clean, _ = _load(paths["mcap"], config)
+    m, warned = _load(stepped("all", lambda topic: True), config)
+    for stream in ("imu", "dvl", "depth", "gt"):
+        np.testing.assert_allclose(getattr(m, stream).t, getattr(clean, stream).t, atol=2e-9, err_msg=stream)
+    n_dvl = int(np.sum(clean.dvl.t + clean.meta["t0_unix_ns"] / 1e9 >= t_step_ns / 1e9))
+    assert m.meta["streams"]["dvl"]["doubted"] == {bag_convert.HEADER_CLOCK_STEP: n_dvl}
+    said = [w for w in warned if "the header clock steps with the IMU's" in w]
+    assert [w.split(",")[0] for w in said] == [f"{m.meta['source']}: {t}" for t in ("/dvl/data", "/pressure",
+                                                                                      "/reference/odometry")], said
+    assert "moved back by 5.000 s" in said[0]
+    # the IMU's clock alone stepped: the other topics stay as they were
+    m, warned = _load(stepped("imu", lambda topic: topic == "/imu/data"), config)
+    for stream in ("imu", "dvl", "depth", "gt"):
+        np.testing.assert_allclose(getattr(m, stream).t, getattr(clean, stream).t, atol=2e-9, err_msg=stream)
+    assert not [w for w in warned if "the header clock steps with the IMU's" in w]
+    assert "doubted" not in m.meta["streams"]["dvl"]
+
+
+def test_an_imu_losing_samples_over_hours_is_checked_for_header_clock_steps_in_a_second():
+    """An hour's IMU topic at 110 Hz losing 1 % of its samples (header and receive time both gap: nothing to move)
+    took 11 s to check for header clock steps, the latency of every message computed again at each of its 4000
+    gaps: now once (1.5 h at 5 % lost: 115 s, now 5 s)."""
+    import time
+
+    from graphnav.io.bag_convert import Stream, header_clock_steps_removed
+    rng = np.random.default_rng(3)
+    kept = np.flatnonzero(rng.random(400_000) >= 0.01)
+    t_ns = T0_NS + kept * 9_090_909
+    s = Stream("/imu/data", "sensor_msgs/msg/Imu", t_ns, [None] * kept.size, "header",
+               t_ns + 2_000_000 + rng.integers(0, 1_000_000, kept.size))
+    meta: dict = {}
+    start = time.perf_counter()
+    assert header_clock_steps_removed(s, "bag", meta) is s and meta == {}
+    assert time.perf_counter() - start < 5.0
+
+
 def test_a_bag_cut_mid_write_is_refused_saying_so_and_naming_the_file(sim, tmp_path):
     """A bag whose MCAP file was cut at 60 % of its bytes (the recorder killed) was refused with rosbags' 'File end
     magic is invalid.' alone: now the error names the MCAP file, says it was cut mid-write and how to recover its

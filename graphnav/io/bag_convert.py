@@ -233,7 +233,7 @@ HEADER_STEP_SPREADS = 10.0
 HEADER_CLOCK_STEP = "stamped after a step of the header clock the receive clock does not show (moved back)"
 
 
-def header_clock_steps_removed(s: Stream, source: str, meta: dict) -> Stream:
+def header_clock_steps_removed(s: Stream, source: str, meta: dict, steps: list | None = None) -> Stream:
     """``s`` (the IMU topic, on its header stamps) with each forward step of its header clock that the bag's receive
     clock does not share taken out: a gap of whole periods in the header stamps reads as samples lost, bridged by the
     run, but when the messages kept arriving at the period (header minus receive time steps by the gap and stays
@@ -241,7 +241,8 @@ def header_clock_steps_removed(s: Stream, source: str, meta: dict) -> Stream:
     step lasts as many periods as the receive time says passed (one, mostly). Each step is warned about naming the
     topic, the message, its time and the field, and its samples counted as doubted in ``meta``; a gap the receive
     time shares too (samples lost, or the recorder's clock stepping with it) is left to
-    :func:`graphnav.core.screening.say_imu_stamp_steps`."""
+    :func:`graphnav.core.screening.say_imu_stamp_steps`. Each step moved back is appended to ``steps`` (when given)
+    as (the receive time of its first message, ns; the stamps' shift, ns) for :func:`shared_clock_step_removed`."""
     from graphnav.core.imu_timing import GAP_WARN_SAMPLES, imu_step_stats
     if s.stamp_kind != "header" or s.receive_ns is None or len(s.t_ns) < 3:
         return s
@@ -250,25 +251,70 @@ def header_clock_steps_removed(s: Stream, source: str, meta: dict) -> Stream:
     period = imu_step_stats(np.diff(t_ns) / 1e9)[0]
     if not np.isfinite(period) or period <= 0:
         return s
+    latency = (t_ns - rx_ns) / 1e9      # moved with the stamps: computed once (a gap per second over hours)
     moved = 0
     for i in np.flatnonzero(np.diff(t_ns) / 1e9 >= GAP_WARN_SAMPLES * period):
-        latency = (t_ns - rx_ns) / 1e9
-        before, after = latency[max(0, i + 1 - HEADER_STEP_WINDOW):i + 1], latency[i + 1:i + 1 + HEADER_STEP_WINDOW]
-        spread = float(np.median(np.abs(before - np.median(before))))
-        step = float(np.median(after) - np.median(before))
+        step, spread = _latency_step(latency, i + 1)
         if step < max(GAP_WARN_SAMPLES * period, HEADER_STEP_SPREADS * spread):
             continue
         jump = (t_ns[i + 1] - t_ns[i]) / 1e9
         periods = max(1, round((jump - step) / period))
         shift_ns = int(round((jump - periods * period) * 1e9))
         t_ns[i + 1:] -= shift_ns
+        latency[i + 1:] -= shift_ns / 1e9
         moved += 1
+        if steps is not None:
+            steps.append((int(rx_ns[i + 1]), shift_ns))
         at = _named(np.array([i + 1 if s.index is None else s.index[i + 1]]), t_ns[i + 1:i + 2] + shift_ns, t_ns[0])[0]
         text = (f"{s.topic}, {at}, field '{STAMP_FIELDS['header']}': the header clock steps {jump:+.3f} s while the "
                 f"messages kept arriving (receive time {(rx_ns[i + 1] - rx_ns[i]) / 1e9:+.3f} s): no samples lost; "
                 f"the stamps from this message on are moved back by {shift_ns / 1e9:.3f} s onto the clock before "
                 f"the step")
         say_doubted(meta, "imu", source, text, HEADER_CLOCK_STEP, len(t_ns) - i - 1, stacklevel=2)
+    return dataclasses.replace(s, t_ns=t_ns) if moved else s
+
+
+def _latency_step(latency: np.ndarray, k: int) -> tuple[float, float]:
+    """How far header minus receive time, s, steps at message ``k`` (the medians over :data:`HEADER_STEP_WINDOW`
+    messages either side), and its spread before it (median absolute deviation), s."""
+    before, after = latency[max(0, k - HEADER_STEP_WINDOW):k], latency[k:k + HEADER_STEP_WINDOW]
+    return (float(np.median(after) - np.median(before)),
+            float(np.median(np.abs(before - np.median(before)))))
+
+
+def shared_clock_step_removed(s: Stream, steps: list, kind: str, source: str, meta: dict) -> Stream:
+    """``s`` (a topic other than the IMU's, on its header stamps) with the IMU's header clock steps ``steps`` (from
+    :func:`header_clock_steps_removed`) taken out where its own header clock stepped with the IMU's: a time-sync
+    unit or a vehicle computer stamping every sensor steps them all while the recorder's receive clock runs on, and
+    the IMU moved back alone left the rest of this topic that far off it. Shared: its header minus receive time
+    steps by the IMU's shift, within :data:`HEADER_STEP_SPREADS` of its spread or a tenth of the shift, at the
+    message received at the step or next to it. Warned naming the topic and message, counted as doubted on ``kind``;
+    a topic whose clock did not step (its own) is left as it is."""
+    if s.stamp_kind != "header" or s.receive_ns is None or len(s.t_ns) < 3 or not steps:
+        return s
+    t_ns = np.asarray(s.t_ns, np.int64).copy()
+    rx_ns = np.asarray(s.receive_ns, np.int64)
+    latency = (t_ns - rx_ns) / 1e9
+    moved = 0
+    for step_rx_ns, shift_ns in steps:
+        j = int(np.searchsorted(rx_ns, step_rx_ns))
+        if j <= 0 or j >= len(t_ns):
+            continue
+        # the first message on the new clock: a message stamped just before the step may be received just after it
+        near = np.arange(max(1, j - 2), min(len(t_ns), j + 3))
+        k = int(near[np.argmax(np.diff(latency)[near - 1])])
+        step, spread = _latency_step(latency, k)
+        shift = shift_ns / 1e9
+        if abs(step - shift) > max(HEADER_STEP_SPREADS * spread, 0.1 * abs(shift)):
+            continue
+        t_ns[k:] -= shift_ns
+        latency[k:] -= shift
+        moved += 1
+        at = _named(np.array([k if s.index is None else s.index[k]]), t_ns[k:k + 1] + shift_ns, t_ns[0])[0]
+        text = (f"{s.topic}, {at}, field '{STAMP_FIELDS['header']}': the header clock steps with the IMU's "
+                f"({step:+.3f} s against the receive time): the stamps from this message on are moved back by "
+                f"{shift:.3f} s, as the IMU's")
+        say_doubted(meta, kind, source, text, HEADER_CLOCK_STEP, len(t_ns) - k, stacklevel=2)
     return dataclasses.replace(s, t_ns=t_ns) if moved else s
 
 

@@ -394,10 +394,15 @@ def load_bag(path: str | Path, config: SensorConfig | None = None, topics: dict[
     meta: dict = {"source": source}
     streams = read_streams(path, topics, meta=meta, dvl_fields=config.bag_topics.get("dvl"))
     imu_s = streams["imu"][0] if "imu" in topics else _pick_one("imu", streams["imu"], source)
-    dvl_s = streams["dvl"][0] if "dvl" in topics else _pick_one("dvl", streams["dvl"], source)
-    stepped = conv.header_clock_steps_removed(imu_s, source, meta)
-    streams["imu"] = [stepped if s is imu_s else s for s in streams["imu"]]   # an AHRS read again as the heading
+    steps: list = []
+    stepped = conv.header_clock_steps_removed(imu_s, source, meta, steps)
+    # the IMU's topic read again as the heading (an AHRS) moves with it; the other topics whose header clock stepped
+    # with the IMU's move back with it
+    streams = {kind: [stepped if s is imu_s else s if kind == "imu" else
+                      conv.shared_clock_step_removed(s, steps, kind, source, meta) for s in found]
+               for kind, found in streams.items()}
     imu_s = stepped
+    dvl_s = streams["dvl"][0] if "dvl" in topics else _pick_one("dvl", streams["dvl"], source)
     t0_ns = int(imu_s.t_ns[0])
     meta.update({"format": "ros1" if meta["bag_kind"] == "ros1" else "rosbag2", "t0_unix_ns": t0_ns})
     _record(meta, "imu", imu_s, t0_ns, source)
