@@ -2956,3 +2956,29 @@ def test_a_stream_whose_every_sample_is_written_again_a_moment_later_loses_every
     assert nudged_copies(t, np.column_stack([t, at_rest]))[0].size == 0
     test = NudgedCopies()
     assert not any(test.is_copy(float(a), tuple(x)) for a, x in zip(t, at_rest.tolist()))
+
+
+def test_a_quiet_imu_resting_on_coarse_counts_between_vibrations_is_not_a_stall():
+    """A navigation-grade IMU whose noise is far below its counts (1-5 mg) repeats one reading for as long as the
+    vehicle rests, while thruster vibration before and after changes every row: that rest was refused as a stalled
+    sensor (in 40 of 60 such logs) and dropped. A reading of gravity's size without a turn is now kept; the same
+    repeats on a reading of a vehicle turning are still a stall."""
+    from graphnav.core import screening
+    refused = 0
+    for seed in range(20):
+        rng = np.random.default_rng(seed)
+        for lsb_mg in (1, 2, 5):
+            n = 6000
+            t = np.arange(n) * 0.01
+            f_b, omega_b = np.tile([0.3, -0.2, -9.79], (n, 1)), np.zeros((n, 3))
+            moving = np.r_[np.ones(2000), np.zeros(2000), np.ones(2000)].astype(bool)
+            f_b[moving] += 0.05 * rng.standard_normal((moving.sum(), 3))
+            omega_b[moving] += 0.01 * rng.standard_normal((moving.sum(), 3))
+            f_b += 5e-4 * rng.standard_normal((n, 3))
+            count = lsb_mg * 9.80665e-3
+            f_b, omega_b = np.round(f_b / count) * count, np.round(omega_b / 1.7e-4) * 1.7e-4
+            refused += screening.imu_stalled(t, f_b, omega_b).any()
+            if seed == 0 and lsb_mg == 1:
+                f_b[2000:4000], omega_b[2000:4000] = f_b[2000], [0.0, 0.0, 0.05]       # stalled on a turn
+                assert screening.imu_stalled(t, f_b, omega_b).sum() == 1999
+    assert refused == 0

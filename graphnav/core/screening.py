@@ -55,6 +55,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from graphnav.core.config import DvlSpec, SensorConfig
+from graphnav.core.earth import gravity_magnitude
 from graphnav.core.errors import DataError
 from graphnav.core.imu_timing import (DIFF_MAD_TO_SIGMA, GAP_WARN_SAMPLES, awaits_packet_cycles, imu_rate_hz,
                                       imu_stamp_quantum, imu_step_stats, restamp_shared_stamps,
@@ -122,6 +123,12 @@ IMU_STALL_MIN_S = 0.5
 #: IMU whose counts are coarser than its noise (at rest, 1e-3 rad/s counts) repeats rows everywhere, and is kept.
 IMU_STALL_CONTEXT_S = 1.0
 IMU_STALL_CONTEXT_REPEAT_SHARE = 0.1
+#: ... and when the reading repeated is not one of a vehicle at rest: a specific force within this of gravity's size,
+#: m/s^2 (gravity's spread over latitudes, 0.05, and 5 mg counts), turning no faster than this, rad/s. A quiet IMU at
+#: rest on counts coarser than its noise repeats one reading for as long as it rests while the vibration around it
+#: changes every row; a stall on such a reading integrates as the rest it reads.
+IMU_REST_FORCE_TOL = 0.1
+IMU_REST_RATE_TOL = 2e-3
 IMU_STALLED = f"stalled (repeats the row before it in every value for {IMU_STALL_MIN_S:g} s or more)"
 #: Names of the IMU's six values, in the order of ``f_b`` then ``omega_b`` (reasons and warnings of loaders whose
 #: files have no column names of their own).
@@ -528,8 +535,9 @@ def imu_stalled(t: np.ndarray, f_b: np.ndarray, omega_b: np.ndarray) -> np.ndarr
     """(N,) bool IMU rows of a stalled sensor: in each run of rows repeating the row before them in all six values
     (``f_b`` m/s^2, ``omega_b`` rad/s, (N,3) each) that lasts :data:`IMU_STALL_MIN_S` or longer by the stamps ``t``
     (N,) s, the repeats (the first row of the run was read), unless the IMU repeats rows around the run as well
-    (:data:`IMU_STALL_CONTEXT_S`, :data:`IMU_STALL_CONTEXT_REPEAT_SHARE`: counts coarser than its noise) or has no
-    finite row there to tell (a noise-free IMU repeating one reading throughout)."""
+    (:data:`IMU_STALL_CONTEXT_S`, :data:`IMU_STALL_CONTEXT_REPEAT_SHARE`: counts coarser than its noise), has no
+    finite row there to tell (a noise-free IMU repeating one reading throughout), or the reading is one of a vehicle
+    at rest (:data:`IMU_REST_FORCE_TOL`, :data:`IMU_REST_RATE_TOL`)."""
     t = np.asarray(t, float)
     x = np.hstack([np.asarray(f_b, float), np.asarray(omega_b, float)])
     out = np.zeros(len(t), dtype=bool)
@@ -540,13 +548,21 @@ def imu_stalled(t: np.ndarray, f_b: np.ndarray, omega_b: np.ndarray) -> np.ndarr
     finite = np.all(np.isfinite(x), axis=1)
     edges = np.flatnonzero(np.diff(np.r_[0, repeats.astype(np.int8), 0]))
     for a, b in zip(edges[::2], edges[1::2]):           # rows a..b-1 repeat row a-1
-        if t[b - 1] - t[a - 1] < IMU_STALL_MIN_S:
+        if t[b - 1] - t[a - 1] < IMU_STALL_MIN_S or _reads_rest(x[a - 1]):
             continue
         around = finite & (((t >= t[a - 1] - IMU_STALL_CONTEXT_S) & (t < t[a - 1]))
                            | ((t > t[b - 1]) & (t <= t[b - 1] + IMU_STALL_CONTEXT_S)))
         if around.any() and repeats[around].mean() < IMU_STALL_CONTEXT_REPEAT_SHARE:
             out[a:b] = True
     return out
+
+
+def _reads_rest(row: np.ndarray) -> bool:
+    """Whether one IMU reading (f_b m/s^2 then omega_b rad/s, (6,)) is one of a vehicle at rest: a specific force of
+    gravity's size, no turn (:data:`IMU_REST_FORCE_TOL`, :data:`IMU_REST_RATE_TOL`)."""
+    g_mid = (gravity_magnitude(0.0) + gravity_magnitude(math.pi / 2)) / 2      # 9.806, the poles and equator 0.026 off
+    return bool(abs(np.linalg.norm(row[:3]) - g_mid) <= IMU_REST_FORCE_TOL
+                and np.linalg.norm(row[3:]) <= IMU_REST_RATE_TOL)
 
 
 def _not_shocks(v: np.ndarray, median: np.ndarray, limit: np.ndarray) -> np.ndarray:
