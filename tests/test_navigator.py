@@ -429,3 +429,39 @@ def test_imu_and_dvl_samples_sent_again_a_moment_later_are_refused_and_change_no
     nav = _navigator(m)
     _feed(nav, other)
     assert nav.info["refused"] == {}
+
+
+def _pings_in_outage(m, start_s: float, duration_s: float, logged: bool):
+    """``m`` with a total DVL outage from ``start_s`` for ``duration_s``: its pings logged with every beam NaN and
+    invalid (``logged``), or missing from the log."""
+    out = (m.dvl.t >= start_s) & (m.dvl.t < start_s + duration_s)
+    if not logged:
+        return dataclasses.replace(m, dvl=m.dvl.take(np.flatnonzero(~out)))
+    beams = np.where(out[:, None], np.nan, m.dvl.beams)
+    return dataclasses.replace(m, dvl=dataclasses.replace(m.dvl, beams=beams, valid=m.dvl.valid & ~out[:, None]))
+
+
+@pytest.mark.parametrize("run", [pytest.param(lambda m: run_graph(m, completer=AverageCompleter(5), batch=True),
+                                              id="Graph-HN-batch"),
+                                 pytest.param(lambda m: run_ekf(m, completer=AverageCompleter(5)), id="HNTC")])
+def test_a_hybrid_says_a_total_outage_whether_its_pings_are_logged_without_beams_or_missing(mission, run):
+    """A 90 s total DVL outage. A hybrid regresses all four beams at each ping logged with no valid beam (NaN rows
+    of an A-KIT file, pings without bottom lock); those completions are no DVL measurement, so it warns that it
+    ran pure inertial and flags the epochs past max_pure_inertial_s exactly as when the pings are missing."""
+    m = mission.slice(0, 150)
+    spans = {}
+    for logged in (True, False):
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            sol = run(_pings_in_outage(m, 40.0, 90.0, logged))
+        text = [str(w.message) for w in caught if "pure inertial" in str(w.message)]
+        assert len(text) == 2 and "pure inertial for 6" in text[0] and "resumed after 9" in text[1], (logged, text)
+        (start, end, _), = spans[logged] = sol.info["pure_inertial_spans"]
+        flagged = np.array(sol.info["health_state"]) != "ok"
+        # every epoch past max_pure_inertial_s up to the stretch's end, and no other (the EKF writes an epoch
+        # per ping only: none inside the outage when the pings are missing)
+        np.testing.assert_array_equal(flagged, (sol.t - start > 60.0) & (sol.t <= end))
+        assert flagged.sum() >= (25 if logged else 0)
+    (start, end, _), = spans[True]
+    assert 39.0 <= start < 40.0 and 129.0 <= end < 130.0
+    assert [start, end] == pytest.approx(spans[False][0][:2], abs=1.01)       # one ping interval

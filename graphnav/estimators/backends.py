@@ -132,8 +132,9 @@ class GraphBackend(_Aided):
             gkf.fix_ne = self.fix_ne(kf, p_pred, None if last is None else last.cov_p_n)
         self.estimator.add(gkf)
         est = self.estimator.update()
-        #: a DVL factor (measured or regressed beams) entered at this keyframe (the Navigator's coasting check)
-        self.last_aided = est.n_measured + est.n_regressed > 0
+        #: a DVL factor with a measured beam (or velocity) entered at this keyframe (the Navigator's coasting
+        #: check); beams regressed at a ping without any measured one are no DVL aiding
+        self.last_aided = est.n_measured > 0
         return est
 
     @property
@@ -260,11 +261,13 @@ class EkfBackend(_Aided):
                 ekf.inflate(kf.imu.var_v, kf.imu.var_att)
                 self.n_imu_gaps += 1
         ping = kf.ping
-        #: a DVL update entered at this keyframe (not gated; LC: >= 3 beams), for the Navigator's coasting check
+        #: a DVL update with a measured beam (or velocity) entered at this keyframe (not gated; LC: >= 3 beams),
+        #: for the Navigator's coasting check; beams regressed at a ping without any measured one are no DVL aiding
         self.last_aided = False
         if ping is not None:
             self.n_regressed_pings += ping.has_regressed
-            self.last_aided = ekf.update_ping(ping, self.tight)
+            entered = ekf.update_ping(ping, self.tight)
+            self.last_aided = entered and (ping.is_velocity or ping.n_measured > 0)
         if kf.heading is not None:
             self._update_heading(*kf.heading)
         if ekf.position_states:

@@ -8,8 +8,10 @@ error can then hold; what must hold is that the estimator says so while it happe
 covers the error (velocity NEES, ``graphnav faults --estimators``).
 
 :class:`CoastingMonitor` is fed one output epoch at a time (:class:`graphnav.estimators.navigator.Navigator`
-feeds it every estimate it makes, with the backend's word on whether a DVL update entered). A stretch of
-epochs without a DVL update runs from the last aided epoch before it (or the first epoch). When a stretch
+feeds it every estimate it makes, with the backend's word on whether a DVL update with a measured beam or velocity
+entered). Beams a completer regresses at a ping without any measured beam are no aiding: a total outage is pure
+inertial whether its pings are in the log with no valid beam (NaN, flagged invalid, no bottom lock) or missing from
+it. A stretch of epochs without aiding runs from the last aided epoch before it (or the first epoch). When a stretch
 becomes longer than the limit the monitor warns once, at that epoch ("pure inertial for X s since t0");
 when aiding resumes after such a stretch it warns again ("aiding resumed ... after X s pure inertial") with
 the predicted velocity sigma at the stretch's last un-aided epoch. :meth:`CoastingMonitor.summary` goes into
@@ -79,8 +81,8 @@ class CoastingMonitor:
         self._warned = False            # the stretch under way has passed max_s (and was warned)
 
     def update(self, t: float, aided: bool, cov_v_n=None) -> None:
-        """One output epoch at t (s): whether a DVL update (measured or regressed beams) entered there, and the
-        velocity covariance (3,3) m^2/s^2 after it (or None)."""
+        """One output epoch at t (s): whether a DVL update with a measured beam or velocity entered there (regressed
+        beams alone do not count), and the velocity covariance (3,3) m^2/s^2 after it (or None)."""
         t = float(t)
         if aided:
             if self._warned:
@@ -101,7 +103,7 @@ class CoastingMonitor:
                 self._warned = True
                 self.spans.append([self.coasting_since, t, _sigma(cov_v_n)])
                 warnings.warn(f"{self.name}: t={t:.2f} s: pure inertial for {length:.0f} s (since "
-                              f"{self.coasting_since:.1f} s, no DVL update), longer than max_pure_inertial_s="
+                              f"{self.coasting_since:.1f} s, no measured DVL beam), longer than max_pure_inertial_s="
                               f"{self.max_s:g}: the velocity is bounded by the IMU alone; "
                               f"{_sigma_text(_sigma(cov_v_n))}",
                               RuntimeWarning, stacklevel=3)
@@ -123,7 +125,7 @@ class CoastingMonitor:
 def check_pure_inertial(name: str, t: np.ndarray, aided: np.ndarray, cov_v_n: np.ndarray | None,
                         max_s: float = MAX_PURE_INERTIAL_S) -> dict:
     """:class:`CoastingMonitor` over a finished run: ``t`` (K,) epochs, s; ``aided`` (K,) True where a DVL update
-    entered; ``cov_v_n`` (K,3,3) velocity covariance, m^2/s^2, or None. Returns its summary."""
+    with a measured beam or velocity entered; ``cov_v_n`` (K,3,3) velocity covariance, m^2/s^2, or None. Returns its summary."""
     monitor = CoastingMonitor(name, max_s)
     for k in range(len(t)):
         monitor.update(t[k], bool(aided[k]), None if cov_v_n is None else cov_v_n[k])

@@ -187,7 +187,7 @@ class EkfOptions:
             :meth:`ErrorStateEkf.screen_regressed`. Off by default (the paper's hybrid filter takes the
             completions at the completer's sigma); ``graphnav.evaluation.methods`` switches it on for the
             hybrid methods.
-        max_pure_inertial_s: warn when no DVL update enters for longer than this, s
+        max_pure_inertial_s: warn when no DVL update with a measured beam enters for longer than this, s
             (:func:`graphnav.estimators.coasting.check_pure_inertial`).
         catch_up_heading_sigma_factor: the heading sigma of the filter that goes on after a sensor alignment's
             catch-up (:class:`graphnav.estimators.navigator.NavigatorOptions` ``align_catch_up``), which runs

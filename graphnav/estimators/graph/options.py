@@ -176,7 +176,7 @@ class GraphOptions:
             ``"full"`` (also position ``cov_p_n`` in NED, attitude ``cov_rot_b`` and biases ``cov_bias``, what the
             outputs print). The estimates do not depend on it; only the cost does
             (``docs/decisions/covariance-out.md``). ``True`` / ``False`` are read as ``"velocity"`` / ``"none"``.
-        max_pure_inertial_s: warn when no DVL factor enters for longer than this, s
+        max_pure_inertial_s: warn when no DVL factor with a measured beam enters for longer than this, s
             (:func:`graphnav.estimators.coasting.check_pure_inertial`).
         screening: :class:`graphnav.estimators.options.RegressedScreeningOptions`, the screening of regressed
             beams against the graph's predicted beam (see :mod:`.regressed`); off by default.
