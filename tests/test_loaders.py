@@ -875,6 +875,39 @@ def test_a_dvl_a_day_early_is_on_a_clock_of_its_own(akit_dir, tmp_path, gt):
     np.testing.assert_allclose(searched.dvl.t, truth.dvl.t, rtol=0, atol=0.05)
 
 
+@pytest.mark.parametrize("moved", [{"IMU": 86100.0}, {"IMU": -86100.0}, {"IMU": 5000.0},
+                                   {"IMU": 86100.0, "GT": 86100.0}, {"IMU": 86700.0, "GT": 86700.0}])
+def test_an_imu_on_a_clock_of_its_own_keeps_the_offsets_of_the_files_it_left(akit_dir, tmp_path, moved):
+    """Trajectory10's first 60 s, its IMU file (alone or with its GT) moved by hours or a day less 5 min. Anchored on
+    the IMU, the folder's clock was the IMU's though the DVL and GT start at 0: the IMU was rescaled about 0, 2.15 s
+    moved at 86 100 s, and the offsets recorded (the piece's plus the move) were 2.15 s off, the true ones given back
+    said contradicted and used 2.15 s off; a GT moved with the IMU was converted about the folder's origin, its offset
+    recorded 216 s off. The files starting nearest zero keep the folder's clock and the IMU is on its own, as a day
+    or more away: found or given, each offset is the piece's plus the move and the samples land where the piece's do."""
+    import json
+
+    from graphnav.missions import load_mission
+    from test_dvl_frame import _akit_crop_without_gt
+    on_time = _akit_crop_without_gt(akit_dir / "Trajectory10", tmp_path / "gt", np.eye(3), 60.0, 0.0, gt=True)
+    folder = _shift_stamps(on_time, tmp_path / "moved", moved)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        truth = load_mission(on_time)
+        true = {f"{k.lower()}_time_offset_s": getattr(truth.config, f"{k.lower()}_time_offset_s") + moved["IMU"]
+                - moved.get(k, 0.0) for k in ("DVL", "GT")}
+        searched = load_mission(folder)
+        (tmp_path / "config.json").write_text(json.dumps(true))
+        given = load_mission(folder, tmp_path / "config.json")
+    for got, atol in ((searched, 0.03), (given, 0.005)):
+        for stream in ("dvl", "gt"):
+            np.testing.assert_allclose(getattr(got, stream).t - got.imu.t[0],
+                                       getattr(truth, stream).t - truth.imu.t[0], rtol=0, atol=atol)
+    for key, value in true.items():
+        assert getattr(searched.config, key) == pytest.approx(value, abs=0.03)
+        assert getattr(given.config, key) == value
+    assert not any("is given, but" in str(w.message) for w in caught)
+
+
 @pytest.mark.parametrize("shift", [86400.0, -86400.0])
 def test_a_gt_offset_passed_to_load_akit_places_a_gt_a_day_off(akit_dir, tmp_path, shift):
     """Trajectory10's 60 s from 330 s, its GT stamps a day late or early, loaded with ``load_akit(gt_time_offset_s=)``

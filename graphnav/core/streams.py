@@ -85,7 +85,9 @@ def add_note(meta: dict, stream: str, note: str) -> dict:
 
 
 #: ``meta`` key of the files rescaled about their own first stamp (on a clock of their own), by stream:
-#: ``{"origin": s, "factor": the rescale, "folder_origin": s}``, which a time offset on their stamps as written needs
+#: ``{"origin": s, "factor": the rescale, "folder_origin": s}`` (``folder_origin``: the stamp the IMU's stamps are
+#: rescaled about, the folder's origin unless the IMU is on a clock of its own too), which a time offset on their
+#: stamps as written needs
 #: (:func:`offset_on_rescaled_stamps`, :func:`offset_on_written_stamps`), set by
 #: :func:`graphnav.io.loaders.read_akit`; a time offset a user sees or gives is on the stamps as written.
 OWN_CLOCK_RESCALE = "own_clock_rescale"

@@ -678,19 +678,21 @@ def akit_stamp_origins(first: dict[str, float], last: dict[str, float]) -> dict[
 
 def _on_the_folder_clock(first: dict[str, float], last: dict[str, float]) -> set[str]:
     """The streams whose files share the folder's clock, from each file's first and last stamp (s): those starting
-    within the longest file's duration of the IMU file's first stamp (the earliest, without an IMU), unless that lies
-    more than :data:`AKIT_FAR_CLOCK_S` from zero and another file's does not (an IMU moved a day: the others' grids
-    start at 0, their offsets were recorded as the published ones plus the day). Anchored on the earliest file, a DVL a
-    day early was taken for the folder's clock and the IMU and GT for clocks of their own: rescaled about 0 a day away,
-    the DVL moved 216 s, and its correct offset was refused (a piece 330 s into the published grid)."""
+    within the longest file's duration of the IMU file's first stamp (the earliest, without an IMU), unless the file
+    starting nearest zero is not among them and starts within :data:`AKIT_FAR_CLOCK_S` of it: then those starting
+    near that one (an IMU moved hours or a day, before or after: the others' grids start at 0, their offsets are the
+    published ones plus the move). Anchored on the earliest file, a DVL a day early was taken for the folder's clock
+    and the IMU and GT for clocks of their own: rescaled about 0 a day away, the DVL moved 216 s, and its correct
+    offset was refused (a piece 330 s into the published grid). Anchored on the IMU alone, an IMU 86 100 s late was
+    rescaled about 0 (2.15 s moved) and the others' offsets recorded 2.15 s off."""
     longest = max(last[k] - first[k] for k in first)
 
     def starting_near(anchor: float) -> set[str]:
         return {k for k, t0 in first.items() if abs(t0 - anchor) <= longest}
     shared = starting_near(first.get("imu", min(first.values())))
-    near_zero = [t0 for t0 in first.values() if abs(t0) <= AKIT_FAR_CLOCK_S]
-    if abs(min(first[k] for k in shared)) > AKIT_FAR_CLOCK_S and near_zero:
-        shared = starting_near(min(near_zero))
+    nearest_zero = min(first, key=lambda k: abs(first[k]))
+    if nearest_zero not in shared and abs(first[nearest_zero]) <= AKIT_FAR_CLOCK_S:
+        shared = starting_near(first[nearest_zero])
     return shared
 
 
@@ -715,6 +717,9 @@ def _rescale_akit_stamps(arrays: dict, files: dict, meta: dict) -> None:
     first = {k: float(a[0, 0]) for k, a in present.items()}
     last = {k: float(a[-1, 0]) for k, a in present.items()}
     origins, folder_origin = akit_stamp_origins(first, last), akit_folder_origin(first, last)
+    # a file off the folder's clock is put on the IMU's, whose origin is not the folder's where the IMU is on a clock of
+    # its own too (a GT moved a day with it: converted about the folder's, its offset was recorded 216 s off)
+    imu_origin = origins.get("imu", folder_origin)
     kept, rescaled = [], []
     for k, a in present.items():
         step = grid_step(a[:, 0])
@@ -736,7 +741,7 @@ def _rescale_akit_stamps(arrays: dict, files: dict, meta: dict) -> None:
         a[:, 0] = _scaled_about(a[:, 0], origins[k], factor)
         if origins[k] != folder_origin:
             meta.setdefault(OWN_CLOCK_RESCALE, {})[k] = {"origin": origins[k], "factor": factor,
-                                                         "folder_origin": folder_origin}
+                                                         "folder_origin": imu_origin}
         about = f" about t = {origins[k]:.3f} s" if origins[k] else ""
         add_note(meta, k, f"stamps rescaled by {factor:.8g}{about}: the published linspace(0, T, N) step "
                           f"{step:.8g} s back on the sensor's {1.0 / AKIT_NOMINAL_RATE_HZ[k]:g} s period")
