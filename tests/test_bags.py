@@ -1111,7 +1111,8 @@ def test_a_bag_cut_mid_write_is_refused_saying_so_and_naming_the_file(sim, tmp_p
     mcap = cut / "run_mcap.mcap"
     data = mcap.read_bytes()
     mcap.write_bytes(data[: int(len(data) * 0.6)])
-    said = rf"{re.escape(str(mcap))} ends before its MCAP footer, a recording cut mid-write .*`mcap recover run_mcap.mcap"
+    said = (rf"{re.escape(str(mcap))} ends before its MCAP footer, a recording cut mid-write "
+            r".*`mcap recover run_mcap.mcap")
     for path in (cut, mcap):
         with pytest.raises(DataError, match=said):
             load_mission(path, config)

@@ -125,7 +125,8 @@ class CoastingMonitor:
 def check_pure_inertial(name: str, t: np.ndarray, aided: np.ndarray, cov_v_n: np.ndarray | None,
                         max_s: float = MAX_PURE_INERTIAL_S) -> dict:
     """:class:`CoastingMonitor` over a finished run: ``t`` (K,) epochs, s; ``aided`` (K,) True where a DVL update
-    with a measured beam or velocity entered; ``cov_v_n`` (K,3,3) velocity covariance, m^2/s^2, or None. Returns its summary."""
+    with a measured beam or velocity entered; ``cov_v_n`` (K,3,3) velocity covariance, m^2/s^2, or None. Returns its
+    summary."""
     monitor = CoastingMonitor(name, max_s)
     for k in range(len(t)):
         monitor.update(t[k], bool(aided[k]), None if cov_v_n is None else cov_v_n[k])
