@@ -838,6 +838,21 @@ def test_the_imu_integrals_at_the_pings_are_each_columns_interpolation_to_the_bi
     assert np.array_equal(got[0][pings < ints.t[0]], np.broadcast_to(ints.F[0], (np.sum(pings < ints.t[0]), 3)))
 
 
+def test_the_imu_integrals_at_a_nan_stamp_are_what_np_interp_gives_not_the_last_row():
+    """A NaN stamp sorts past the grid's end: the one grid search held the integrals' last values there, a finite
+    number where each column's ``np.interp`` gives NaN (a score over it would count a ping that is not there)."""
+    from graphnav.core.dvl_kinematics import imu_integrals
+    from graphnav.core.timeseries import interp_rows
+    rng = np.random.default_rng(5)
+    t = np.cumsum(rng.uniform(0.008, 0.012, 3000))
+    ints = imu_integrals(t, rng.standard_normal((len(t), 3)), 0.3 * rng.standard_normal((len(t), 3)))
+    pings = np.array([np.nan, ints.t[5], 0.5 * (ints.t[7] + ints.t[8]), np.nan, ints.t[-1] + 1.0])
+    got = ints.at(pings)
+    for x, y in zip((ints.F, ints.W, ints.omega, ints.M.reshape(-1, 9)), got):
+        np.testing.assert_array_equal(y, interp_rows(pings, ints.t, x))
+    assert np.isnan(got[0][[0, 3]]).all() and np.isfinite(got[0][[1, 2, 4]]).all()
+
+
 @pytest.mark.parametrize("late_s, builds, searches", [(0.0, 2, 1), (60.0, 2, 2)])
 def test_an_akit_dvl_explained_poorly_as_stamped_builds_its_clock_model_once(akit_dir, tmp_path, monkeypatch, late_s,
                                                                             builds, searches):

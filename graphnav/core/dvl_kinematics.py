@@ -137,6 +137,9 @@ class ImuIntegrals:
         held = before | after | (t0 == t_query)       # np.interp gives a grid stamp's value as it is
         if held.any():
             out[held] = np.where(before[held, None], rows[0], np.where(after[held, None], rows[-1], x0[held]))
+        unstamped = np.isnan(t_query)        # sorted past the grid's end: np.interp's own answer, not the end values
+        if unstamped.any():
+            out[unstamped] = interp_rows(t_query[unstamped], t, rows)
         return tuple(np.ascontiguousarray(out[:, a:b]) for a, b in ((0, 3), (3, 6), (6, 9), (9, 18)))
 
 
