@@ -1633,7 +1633,8 @@ def _clock_clear(est: dict) -> bool:
     """A DVL clock search's estimate ``est`` (``meta["clock_offsets"]["dvl"]``) has a clear peak
     (:attr:`graphnav.calibration.clock.ClockOffset.clear`)."""
     from graphnav.calibration.clock import clear_peak
-    return clear_peak(est["peak"], est["sharpness"], "repeated_at_s" in est, est.get("lead_sigmas", float("nan")))
+    return clear_peak(est["peak"], est["sharpness"], "repeated_at_s" in est, est.get("lead_sigmas", float("nan")),
+                      est["second_peak"])
 
 
 #: A turn left over after the quarter turn a clock was found with, deg, from which the turn is said to be "about" it.
