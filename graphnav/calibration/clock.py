@@ -202,8 +202,9 @@ class ClockOffset:
 
     @property
     def clear(self) -> bool:
-        """The peak stands out of the residuals at every other offset (:data:`MIN_PEAK`, :data:`MIN_SSE_RATIO`); an
-        offset another further off explains about as well (``repeated_at_s``) is not clear."""
+        """The peak stands out of the residuals at every other offset (:data:`MIN_PEAK`, :data:`MIN_SSE_RATIO`) or its
+        windows lead the next best offset (:data:`MIN_LEAD_SIGMAS`, :data:`LEAD_MAX_SECOND_SHARE`); an offset another
+        further off explains about as well (``repeated_at_s``) is not clear (:func:`clear_peak`)."""
         return clear_peak(self.peak, self.sharpness, self.repeated, self.lead_sigmas, self.second_peak)
 
     @property
