@@ -474,8 +474,9 @@ def test_ensembles_copied_anywhere_in_the_file_are_read_once(sim, tmp_path, dama
 
 def test_ensembles_that_cannot_be_put_in_time_order_are_refused_naming_them(sim, tmp_path):
     """Where the clock and the ensemble numbers disagree, the file is refused naming the ensembles (it was read in
-    file order without a word): a clock set back mid-file while the numbers run on, two different ensembles at one
-    time with one number, and two recordings overlapping in time whose numbers would interleave."""
+    file order without a word) and saying what a user can do: a clock set back mid-file while the numbers run on
+    (cut the file there), two different ensembles at one time with one number, and two recordings overlapping in
+    time whose numbers would interleave (a file for each)."""
     from graphnav.core.errors import DataError
     mission, root = sim
     t, size = mission.dvl.t, len(_ensembles_of(root / "dvl.000")[0])
@@ -484,7 +485,9 @@ def test_ensembles_that_cannot_be_put_in_time_order_are_refused_naming_them(sim,
     write_pd0(path, mission, t_s=back)
     with pytest.raises(DataError, match=rf"field 'time': the ensembles cannot be put in time order: the clock runs "
                                         rf"back {t[19] - back[20]:.2f} s from ensemble 20 \(byte {19 * size}\) to "
-                                        rf"ensemble 21 \(byte {20 * size}\) while the ensemble numbers run on"):
+                                        rf"ensemble 21 \(byte {20 * size}\) while the ensemble numbers run on: .*; "
+                                        rf"cut the file at byte {20 * size} and load each part with its own clock "
+                                        r"offset \(dvl_time_offset_s\)"):
         read_pd0_log(path)
     write_pd0(tmp_path / "b.000", mission, raw_mms=np.full((len(t), 4), 100))     # other beams, same numbers
     ens, other = _ensembles_of(root / "dvl.000"), _ensembles_of(tmp_path / "b.000")
@@ -494,7 +497,8 @@ def test_ensembles_that_cannot_be_put_in_time_order_are_refused_naming_them(sim,
         read_pd0_log(path)
     write_pd0(tmp_path / "b.000", mission, t_s=t + 0.25)
     path.write_bytes((root / "dvl.000").read_bytes() + (tmp_path / "b.000").read_bytes())
-    with pytest.raises(DataError, match="in time order the ensemble numbers would interleave"):
+    with pytest.raises(DataError, match="in time order the ensemble numbers would interleave: .*; load each "
+                                        "recording from a file of its own"):
         read_pd0_log(path)
 
 

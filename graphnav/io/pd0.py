@@ -281,7 +281,8 @@ def _time_order(numbers: np.ndarray, t: np.ndarray, spans: list) -> tuple[np.nda
     if len(twins):
         i, j = sorted(np.flatnonzero((t == t[twins[0]]) & (numbers == numbers[twins[0]]))[:2])
         return order, "", (f"{named[i]} and {named[j]} hold the same time ({_utc(t[i])}) and number but differ: "
-                           "which one the instrument recorded then cannot be told")
+                           "which one the instrument recorded then cannot be told; if you know, remove the other's "
+                           "bytes from a copy of the file")
     dt_s, dn = np.diff(t[known]), np.diff(numbers[known])
     back = known[:-1][(dt_s < 0) | ((dt_s == 0) & (dn < 0))]
     if not len(back):
@@ -290,17 +291,20 @@ def _time_order(numbers: np.ndarray, t: np.ndarray, spans: list) -> tuple[np.nda
     note = _back_note(named, t, int(back[0]), nxt[int(back[0])])
     if len(known) < len(t):
         bad = int(np.flatnonzero(~np.isfinite(t))[0])
-        return order, note, f"{note}, and {named[bad]} has a clock that is no date: it cannot be placed in time"
+        return order, note, (f"{note}, and {named[bad]} has a clock that is no date: it cannot be placed in time; "
+                             "remove that ensemble (its bytes) from a copy of the file")
     for i in back:
         j = nxt[int(i)]
         if t[j] < t[i] and numbers[j] >= numbers[i]:
             return order, note, (f"the clock runs back {t[i] - t[j]:.2f} s from {named[i]} to {named[j]} while the "
                                  "ensemble numbers run on: the instrument's clock was set back mid-file, so the "
-                                 "ensembles cannot be placed in time")
+                                 f"ensembles cannot be placed in time; cut the file at byte {spans[j][0]} and load "
+                                 "each part with its own clock offset (dvl_time_offset_s)")
     in_time = _in_time(numbers, t)
     if _numbers_back(numbers[in_time]) > _numbers_back(numbers):       # a number not after the one before it
         return order, note, (f"{note}, and in time order the ensemble numbers would interleave: two recordings "
-                             "that overlap in time, which cannot be told apart")
+                             "that overlap in time, which cannot be told apart; load each recording from a file "
+                             "of its own")
     moved = in_time != order
     if not moved.any():            # only restarts or roll-overs within one second: the file's order is the time's
         return order, "", ""
