@@ -474,8 +474,9 @@ def test_ensembles_copied_anywhere_in_the_file_are_read_once(sim, tmp_path, dama
 
 def test_ensembles_that_cannot_be_put_in_time_order_are_refused_naming_them(sim, tmp_path):
     """Where the clock and the ensemble numbers disagree, the file is refused naming the ensembles (it was read in
-    file order without a word): a clock set back mid-file while the numbers run on, two different ensembles at one
-    time with one number, and two recordings overlapping in time whose numbers would interleave."""
+    file order without a word) and saying what a user can do: a clock set back mid-file while the numbers run on
+    (cut the file there), two different ensembles at one time with one number, and two recordings overlapping in
+    time whose numbers would interleave (a file for each)."""
     from graphnav.core.errors import DataError
     mission, root = sim
     t, size = mission.dvl.t, len(_ensembles_of(root / "dvl.000")[0])
@@ -484,7 +485,9 @@ def test_ensembles_that_cannot_be_put_in_time_order_are_refused_naming_them(sim,
     write_pd0(path, mission, t_s=back)
     with pytest.raises(DataError, match=rf"field 'time': the ensembles cannot be put in time order: the clock runs "
                                         rf"back {t[19] - back[20]:.2f} s from ensemble 20 \(byte {19 * size}\) to "
-                                        rf"ensemble 21 \(byte {20 * size}\) while the ensemble numbers run on"):
+                                        rf"ensemble 21 \(byte {20 * size}\) while the ensemble numbers run on: .*; "
+                                        rf"cut the file at byte {20 * size} and load each part with its own clock "
+                                        r"offset \(dvl_time_offset_s\)"):
         read_pd0_log(path)
     write_pd0(tmp_path / "b.000", mission, raw_mms=np.full((len(t), 4), 100))     # other beams, same numbers
     ens, other = _ensembles_of(root / "dvl.000"), _ensembles_of(tmp_path / "b.000")
@@ -494,7 +497,8 @@ def test_ensembles_that_cannot_be_put_in_time_order_are_refused_naming_them(sim,
         read_pd0_log(path)
     write_pd0(tmp_path / "b.000", mission, t_s=t + 0.25)
     path.write_bytes((root / "dvl.000").read_bytes() + (tmp_path / "b.000").read_bytes())
-    with pytest.raises(DataError, match="in time order the ensemble numbers would interleave"):
+    with pytest.raises(DataError, match="in time order the ensemble numbers would interleave: .*; load each "
+                                        "recording from a file of its own"):
         read_pd0_log(path)
 
 
@@ -516,6 +520,33 @@ def test_a_pd0_file_of_one_or_two_ensembles_is_refused_in_graphnav_words(sim, tm
     assert len(_quiet_read(path).t) == 2
 
 
+def _read_with_two_swapped(path, ens: list[bytes], i: int):
+    """``ens`` written to ``path`` with the ``i``-th (0-based) and the next swapped, read: (the log, the warnings on
+    the time order)."""
+    path.write_bytes(b"".join(ens[:i] + [ens[i + 1], ens[i]] + ens[i + 2:]))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        log = read_pd0_log(path)
+    return log, [str(w.message) for w in caught if "out of time order" in str(w.message)]
+
+
+def _assert_sorted_as(log, clean, said: list[str], first: str) -> None:
+    """``log`` read as ``clean`` with two ensembles moved to their time, warned about first as ``first``."""
+    assert said and said[0].startswith(first)
+    np.testing.assert_array_equal(log.t, clean.t)
+    np.testing.assert_array_equal(log.beams, clean.beams)
+    assert log.counts == {**clean.counts, "ensemble stored out of time order (sorted)": 2}     # pd0.SORTED_ENSEMBLE
+
+
+def _numbered(mission, numbers, t_s=None) -> bytes:
+    """The mission's pings as ensembles numbered ``numbers`` (the high byte as ``numbers >> 16``), at the pings'
+    times or ``t_s`` (s after :data:`START`)."""
+    beams = np.where(mission.dvl.valid, np.round(mission.dvl.beams * 1000.0), -32768)
+    t_s = mission.dvl.t if t_s is None else t_s
+    return b"".join(_ensemble(int(n), START + dt.timedelta(seconds=float(s)), b, 1000)
+                    for n, s, b in zip(numbers, t_s, beams))
+
+
 def test_a_dvl_pinging_faster_than_its_clock_ticks_reads_in_the_order_of_its_ensemble_numbers(sim, tmp_path):
     """A clean file from an instrument pinging at 2 Hz whose clock gives whole seconds (zero hundredths): two
     ensembles share each time. It reads in file order without a word on the order (it was refused: "hold the same
@@ -534,23 +565,13 @@ def test_a_dvl_pinging_faster_than_its_clock_ticks_reads_in_the_order_of_its_ens
     ens = _ensembles_of(path)
     size = len(ens[0])
     assert t_s[10] == t_s[11] and not np.array_equal(clean.beams[10], clean.beams[11], equal_nan=True)
-    path.write_bytes(b"".join(ens[:10] + [ens[11], ens[10]] + ens[12:]))
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        log = read_pd0_log(path)
-    said = [str(w.message) for w in caught if "out of time order" in str(w.message)]
-    assert said and said[0].startswith(f"{path}: 2 ensemble(s) stored out of time order (ensemble 11 (byte "
-                                       f"{11 * size}) holds the time of ensemble 12 (byte {10 * size}) stored ahead "
-                                       "of it and an earlier number)")
-    np.testing.assert_array_equal(log.t, clean.t)
-    np.testing.assert_array_equal(log.beams, clean.beams)
-    assert log.counts == {**clean.counts, sorted_key: 2}
+    log, said = _read_with_two_swapped(path, ens, 10)
+    _assert_sorted_as(log, clean, said, f"{path}: 2 ensemble(s) stored out of time order (ensemble 11 (byte "
+                      f"{11 * size}) holds the time of ensemble 12 (byte {10 * size}) stored ahead of it and an "
+                      "earlier number)")
     # numbers restarting at 1 within one second (the instrument restarted): the file's order is kept, not the
     # numbers' (which would put ensemble 1 before the two ahead of it)
-    beams = np.where(mission.dvl.valid, np.round(mission.dvl.beams * 1000.0), -32768)
-    numbers = np.r_[np.arange(1, 12), np.arange(1, len(t_s) - 10)]
-    path.write_bytes(b"".join(_ensemble(int(n), START + dt.timedelta(seconds=float(s)), b, 1000)
-                              for n, s, b in zip(numbers, t_s, beams)))
+    path.write_bytes(_numbered(mission, np.r_[np.arange(1, 12), np.arange(1, len(t_s) - 10)], t_s))
     restarted = _quiet_read(path)
     assert sorted_key not in restarted.counts
     np.testing.assert_array_equal(restarted.t, clean.t)
@@ -568,3 +589,79 @@ def test_a_pd0_file_across_the_turn_of_1999_reads_in_the_order_of_its_y2k_clock(
     path.write_bytes(b"".join(_ensemble(k + 1, start + dt.timedelta(seconds=k), beams[k], 1000) for k in range(20)))
     log = _quiet_read(path)
     np.testing.assert_allclose(log.t, start.timestamp() + np.arange(19), atol=1e-6)
+
+
+def test_two_ensembles_swapped_across_a_roll_over_without_the_high_byte_are_sorted(sim, tmp_path):
+    """Ensemble numbers that roll over 65535 -> 0 without the high byte (byte 11 left at 0), with the ensembles
+    numbered 65535 and 0 swapped: put back in time order, warned and counted, the pings of the clean file. It was
+    refused as a clock set back mid-file. A clock set back across the roll-over is still refused."""
+    from graphnav.core.errors import DataError
+    mission, _ = sim
+    t, n = mission.dvl.t, len(mission.dvl.t)
+    numbers = (65530 + np.arange(n)) % 65536                        # 65535 is the 6th ensemble, 0 the 7th
+    path = tmp_path / "dvl.000"
+    path.write_bytes(_numbered(mission, numbers))
+    clean = _quiet_read(path)
+    ens = _ensembles_of(path)
+    size = len(ens[0])
+    log, said = _read_with_two_swapped(path, ens, 5)
+    _assert_sorted_as(log, clean, said, f"{path}: 2 ensemble(s) stored out of time order (ensemble 65535 (byte "
+                      f"{6 * size}) is {t[6] - t[5]:.2f} s before ensemble 0 (byte {5 * size}) stored ahead of it)")
+    back = t - np.where(np.arange(n) >= 8, 4.5, 0.0)                # set back after ensemble 1, numbers running on
+    path.write_bytes(_numbered(mission, numbers, t_s=back))
+    with pytest.raises(DataError, match=r"the clock runs back [0-9.]+ s from ensemble 1 \(byte "
+                                        rf"{7 * size}\) to ensemble 2 \(byte {8 * size}\) while the ensemble numbers "
+                                        "run on"):
+        read_pd0_log(path)
+
+
+def test_ensembles_sharing_a_time_load_beside_an_imu_spread_within_their_clock_tick(sim, tmp_path):
+    """A DVL pinging at 1 Hz whose clock repeats each time for 2 s (two ensembles per time) reads alone at its
+    recorded times, and beside an IMU loads (it was refused: "time stamp duplicated") with the second ping of each
+    time spread to the middle of its 2 s tick, warned about and counted as doubted; the first of each keeps its
+    time."""
+    spread_key = "ensemble time shared with the ping before (stamp spread after it)"       # pd0.SPREAD_TIME
+    mission, _ = sim
+    t_s = 2.0 * np.floor(mission.dvl.t / 2.0)
+    assert np.all(t_s[:-1:2] == t_s[1::2])
+    m, rec = _load_written_pd0(sim, tmp_path, t_s=t_s)
+    n = len(m.dvl.t)                                                 # dolfyn leaves the last ensemble
+    expected = t_s[:n] + np.where(np.arange(n) % 2, 1.0, 0.0)         # the mission's stamps start at its first
+    np.testing.assert_allclose(m.dvl.t - m.dvl.t[0], expected, atol=1e-6)
+    dvl = m.meta["streams"]["dvl"]
+    assert dvl["doubted"] == {spread_key: n // 2}
+    said = [str(w.message) for w in rec if "share their ensemble's time" in str(w.message)]
+    assert said == [f"{tmp_path / 'dvl.000'}: {n // 2} of {n} ping(s) share their ensemble's time (the variable "
+                    "leader's clock) with the ping before (a clock that ticks slower than the instrument pings, or "
+                    "repeats a time): spread after it in ensemble order within the clock's tick, at most 1.000 s "
+                    f"after the time recorded, first ensemble 2 (byte {len(_ensembles_of(tmp_path / 'dvl.000')[0])}) "
+                    "at 2024-05-01 12:00:00.00; the DVL's own clock cannot tell these times better"]
+    assert said[0].split(": ", 1)[1] in dvl["notes"]
+    np.testing.assert_array_equal(_quiet_read(tmp_path / "dvl.000").t, START.timestamp() + t_s[:n])
+
+
+def test_a_file_cut_in_its_last_ensemble_with_the_whole_file_appended_has_no_corrupt_ensemble(sim, tmp_path):
+    """A copy cut inside its last ensemble with the whole file appended behind it: the cut ensemble is the cut end
+    of the first copy, whole in the second, so it is a copy (counted with them, named), not a corrupt ensemble; the
+    pings are the clean file's. It was warned about and counted as a wrong checksum (corrupt)."""
+    from graphnav.io.pd0 import REPEATED_ENSEMBLE
+    mission, root = sim
+    raw, n = (root / "dvl.000").read_bytes(), len(mission.dvl.t)
+    size = len(raw) // n
+    cut = raw[:len(raw) - size // 2]
+    (tmp_path / "dvl.000").write_bytes(cut + raw)
+    clean = _quiet_read(root / "dvl.000")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        log = read_pd0_log(tmp_path / "dvl.000")
+    assert not [w for w in caught if "checksum" in str(w.message)]
+    said = [str(w.message) for w in caught if "written twice" in str(w.message)]
+    assert said == [f"{tmp_path / 'dvl.000'}: {n} ensemble(s) written twice (identical byte for byte to an earlier "
+                    f"one: a logger's retry, or a file appended to itself) left out: ensemble {n} (byte "
+                    f"{(n - 1) * size}), ensembles 1-{n - 1} (bytes {len(cut)}-{len(cut) + (n - 2) * size}); {n} read "
+                    f"once (ensemble {n} (byte {(n - 1) * size}) is cut short after {len(cut) - (n - 1) * size} bytes "
+                    f"by the next ensemble and read whole from byte {len(cut) + (n - 1) * size}: the cut end of a file "
+                    "with a copy of it joined behind, not a corrupt ensemble)"]
+    assert log.counts == {**clean.counts, REPEATED_ENSEMBLE: n}
+    np.testing.assert_array_equal(log.t, clean.t)
+    np.testing.assert_array_equal(log.beams, clean.beams)

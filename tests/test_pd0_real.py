@@ -282,3 +282,28 @@ def test_riverpro_copies_anywhere_are_read_once_not_refused_in_dolfyn_words(pd0_
     assert log.counts["read"] == clean.counts["read"] == 272
     np.testing.assert_array_equal(log.t, clean.t)
     np.testing.assert_array_equal(log.beams, clean.beams)
+
+
+def test_rdi_with_bt_appended_to_itself_has_no_corrupt_ensemble(pd0_dir, tmp_path):
+    """RDI_withBT.000 (cut at 1,000,000 bytes inside ensemble 1722) appended to itself: the first copy's cut end is
+    followed by the second copy's first ensemble, so its checksum fails; its bytes are those of the ensemble the
+    file ends in, cut too, so it is a copy (counted with the others, named), not a corrupt ensemble. It was warned
+    about and counted as a wrong checksum. The pings are the file's alone."""
+    src = pd0_dir / "RDI_withBT.000"
+    raw = src.read_bytes()
+    (tmp_path / src.name).write_bytes(raw + raw)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        clean = read_dvl(src)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        log = read_dvl(tmp_path / src.name)
+    assert not [w for w in caught if "checksum" in str(w.message)]
+    said = [str(w.message) for w in caught if "written twice" in str(w.message)]
+    assert len(said) == 1 and "left out: ensemble 1722 (byte 999901), ensembles 1-1721 (bytes 1000000-" in said[0]
+    assert said[0].endswith("(ensemble 1722 (byte 999901) is cut short after 99 bytes by the next ensemble and the "
+                            "same as the one the file ends in, cut too: the cut end of a file with a copy of it "
+                            "joined behind, not a corrupt ensemble)")
+    assert log.counts == {**clean.counts, "ensemble written twice (copy left out)": 1722}
+    np.testing.assert_array_equal(log.t, clean.t)
+    np.testing.assert_array_equal(log.beams, clean.beams, strict=True)

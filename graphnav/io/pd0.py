@@ -38,11 +38,15 @@ then equals RDI's bottom-track beam velocity as recorded, and a convex head has 
   counted (``counts``, and a note of the DVL stream), as a corrupt ensemble (wrong checksum) is, and so are
   bytes before the first ensemble (a logger that started mid-ensemble or wrote a preamble) and an ensemble written
   again byte for byte anywhere after itself (a logger's retry, a file appended to itself: the same ping twice,
-  which dolfyn cannot read or reads as time running back).
+  which dolfyn cannot read or reads as time running back); an ensemble cut short by the next one whose bytes are
+  those of an ensemble read whole (or of the one the file ends in) is such a copy too: the cut end of a file with a
+  copy of it joined behind, not a corrupt ensemble.
 * ensembles stored out of time order are put in order by their own clock (the variable leader's RTC) when their
-  ensemble numbers agree, warned about and counted; ensembles that share a time (a clock of 1 s resolution on an
-  instrument pinging faster) are ordered by their numbers; a file whose clock and numbers disagree (a clock set
-  back mid-file, two different ensembles with one time and one number, two recordings overlapping in time) is
+  ensemble numbers agree (counted on across a roll-over 65535 -> 0 without the high byte), warned about and
+  counted; ensembles that share a time (a clock of 1 s resolution on an instrument pinging faster) are ordered by
+  their numbers and keep that time (a mission's DVL stream, :func:`read_pd0`, spreads them within the clock's
+  tick: :func:`spread_shared_times`, warned and counted as doubted); a file whose clock and numbers disagree (a clock
+  set back mid-file, two different ensembles with one time and one number, two recordings overlapping in time) is
   refused naming the ensembles (:func:`_time_order` says why), and so is one of fewer than
   :data:`MIN_ENSEMBLES` ensembles, which dolfyn cannot read.
 * depth from the pressure sensor (dbar -> m with the configured water density). A pressure word of
@@ -107,7 +111,8 @@ class Pd0Scan:
 
     Attributes:
         ensembles: complete ensembles with a valid checksum (an ensemble repeated right after itself once).
-        bad_checksum: headers (0x7F 0x7F) followed by a full-length ensemble whose checksum fails.
+        bad_checksum: headers (0x7F 0x7F) followed by a full-length ensemble whose checksum fails (but the cut
+            copies, ``cut_copies``).
         trailing_bytes: bytes after the last complete ensemble (a file cut by a logger).
         beam_matrix: (4,4) beam-to-instrument matrix of block 0x3200 of the first ensemble (rows X, Y, Z,
             error; scaled counts / 10000), or None.
@@ -120,7 +125,11 @@ class Pd0Scan:
             started mid-ensemble or wrote its own preamble; it is the first ensemble's byte offset.
         repeated: checksummed ensembles identical byte for byte to an earlier one (left out of ``spans``).
         numbers: each kept ensemble's number (the variable leader's, as ``spans``; -1 without a variable leader).
-        copies: ``(number, byte offset)`` of each copy left out (``repeated`` of them), in file order.
+        copies: ``(number, byte offset)`` of each copy left out (``repeated`` of them), in file order, a cut copy
+            (``cut_copies``) among them.
+        cut_copies: ``(number, byte offset, bytes present, byte offset of the whole one)`` of each ensemble cut short
+            inside the file by the next one whose bytes are the start of an ensemble read whole elsewhere (the cut
+            end of a file with a copy of it joined behind): a copy, counted in ``repeated``, not in ``bad_checksum``.
         moved: kept ensembles that the time order puts elsewhere than the file does (``spans`` is in time order).
         order_note: where the file's order first runs back in time (for the warning), "" when it never does.
         unplaced: why the ensembles cannot be put in time order (the file is refused), "" when they can.
@@ -141,6 +150,7 @@ class Pd0Scan:
     moved: int = 0
     order_note: str = ""
     unplaced: str = ""
+    cut_copies: list = dataclasses.field(default_factory=list, repr=False)
 
 
 def _ensembles(raw: bytes, limit: int | None = None):
@@ -176,10 +186,12 @@ def scan_pd0(path: str | Path) -> Pd0Scan:
     of an ensemble (byte for byte the same as an earlier one, anywhere in the file) and put the rest in time order
     (:func:`_time_order`)."""
     raw = Path(path).read_bytes()
-    spans, bad, bad_end, first, copies, end, seen = [], 0, 0, None, [], 0, set()
+    spans, bad, bad_end, first, copies, end, seen = [], [], 0, None, [], 0, set()
     for start, length, ok in _ensembles(raw):
         first = start if first is None else first
         if ok:
+            if start < bad_end:        # a whole ensemble inside one that fails: that one was cut short here
+                bad[-1][2] = bad_end = start
             end = start + length + 2
             digest = hashlib.blake2b(memoryview(raw)[start:end], digest_size=16).digest()
             if digest in seen:
@@ -188,16 +200,38 @@ def scan_pd0(path: str | Path) -> Pd0Scan:
                 seen.add(digest)
                 spans.append((start, end))
         elif start >= bad_end:         # a 0x7F7F inside a corrupt ensemble is not another ensemble
-            bad += 1
             bad_end = start + length + 2
+            bad.append([start, length + 2, bad_end])
     cut_offset, cut_bytes, cut_length = _cut_ensemble(raw, max(end, bad_end))
+    cut_copies = _cut_copies(raw, [b for b in bad if b[2] - b[0] < b[1]], spans, cut_offset if cut_bytes else None)
+    copies = sorted(copies + [(number, start) for number, start, _, _ in cut_copies], key=lambda c: c[1])
     numbers, seconds = (np.array(x) for x in zip(*[_leader(raw, a) for a, _ in spans])) if spans else ([], [])
     order, note, unplaced = _time_order(np.asarray(numbers, int), np.asarray(seconds, float), spans)
     spans = [spans[i] for i in order]
-    return Pd0Scan(len(spans), bad, len(raw) - end if spans else len(raw),
+    return Pd0Scan(len(spans), len(bad) - len(cut_copies), len(raw) - end if spans else len(raw),
                    _beam_matrix(raw, spans[0][0]) if spans else None, spans, cut_bytes, cut_length, cut_offset,
                    first or 0, len(copies), [int(numbers[i]) for i in order], copies,
-                   int((order != np.arange(len(order))).sum()), note, unplaced)
+                   int((order != np.arange(len(order))).sum()), note, unplaced, cut_copies)
+
+
+def _cut_copies(raw: bytes, cut: list, spans: list, end_cut: int | None) -> list:
+    """``(number, byte offset, bytes present, byte offset of the whole ensemble or None)`` of each ensemble that
+    another cuts short inside the file (``cut``: ``[start, length with the checksum, where the next one starts]``)
+    and whose bytes are the start of a whole ensemble read (``spans``), or are those of the ensemble the end of the
+    file cuts (at ``end_cut``, None: none) as far as both go: the cut end of a file with a copy of it joined behind
+    (a file appended to itself, a download resumed from the start). Its checksum fails only because the next
+    ensemble's bytes take the place of its rest, so it is no corrupt ensemble."""
+    found = []
+    for start, length, stop in cut:
+        present = raw[start:stop]
+        whole = next((a for a, b in spans if b - a == length and raw[a:a + len(present)] == present), None)
+        if whole is not None:
+            found.append((_leader(raw, whole)[0], start, len(present), whole))
+            continue
+        tail = raw[end_cut:] if end_cut is not None else b""
+        if tail[2:4] == present[2:4] and tail[:len(present)] == present[:len(tail)]:
+            found.append((_leader(present, 0)[0], start, len(present), None))      # its own bytes only
+    return found
 
 
 def _leader(raw: bytes, start: int) -> tuple[int, float]:
@@ -240,13 +274,15 @@ def _time_order(numbers: np.ndarray, t: np.ndarray, spans: list) -> tuple[np.nda
     """
     order = np.arange(len(t))
     named = [f"ensemble {n} (byte {a})" for n, (a, _) in zip(numbers, spans)]
+    numbers = _rolled_over(numbers, t)
     known = np.flatnonzero(np.isfinite(t))
     by_time = known[np.lexsort((numbers[known], t[known]))]          # one time and one number side by side
     twins = by_time[1:][(np.diff(t[by_time]) == 0) & (np.diff(numbers[by_time]) == 0)]
     if len(twins):
         i, j = sorted(np.flatnonzero((t == t[twins[0]]) & (numbers == numbers[twins[0]]))[:2])
         return order, "", (f"{named[i]} and {named[j]} hold the same time ({_utc(t[i])}) and number but differ: "
-                           "which one the instrument recorded then cannot be told")
+                           "which one the instrument recorded then cannot be told; if you know, remove the other's "
+                           "bytes from a copy of the file")
     dt_s, dn = np.diff(t[known]), np.diff(numbers[known])
     back = known[:-1][(dt_s < 0) | ((dt_s == 0) & (dn < 0))]
     if not len(back):
@@ -255,22 +291,41 @@ def _time_order(numbers: np.ndarray, t: np.ndarray, spans: list) -> tuple[np.nda
     note = _back_note(named, t, int(back[0]), nxt[int(back[0])])
     if len(known) < len(t):
         bad = int(np.flatnonzero(~np.isfinite(t))[0])
-        return order, note, f"{note}, and {named[bad]} has a clock that is no date: it cannot be placed in time"
+        return order, note, (f"{note}, and {named[bad]} has a clock that is no date: it cannot be placed in time; "
+                             "remove that ensemble (its bytes) from a copy of the file")
     for i in back:
         j = nxt[int(i)]
         if t[j] < t[i] and numbers[j] >= numbers[i]:
             return order, note, (f"the clock runs back {t[i] - t[j]:.2f} s from {named[i]} to {named[j]} while the "
                                  "ensemble numbers run on: the instrument's clock was set back mid-file, so the "
-                                 "ensembles cannot be placed in time")
+                                 f"ensembles cannot be placed in time; cut the file at byte {spans[j][0]} and load "
+                                 "each part with its own clock offset (dvl_time_offset_s)")
     in_time = _in_time(numbers, t)
     if _numbers_back(numbers[in_time]) > _numbers_back(numbers):       # a number not after the one before it
         return order, note, (f"{note}, and in time order the ensemble numbers would interleave: two recordings "
-                             "that overlap in time, which cannot be told apart")
+                             "that overlap in time, which cannot be told apart; load each recording from a file "
+                             "of its own")
     moved = in_time != order
     if not moved.any():            # only restarts or roll-overs within one second: the file's order is the time's
         return order, "", ""
     i = next(int(i) for i in back if moved[i] or moved[nxt[int(i)]])
     return in_time, _back_note(named, t, i, nxt[i]), ""
+
+
+def _rolled_over(numbers: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """The ensemble numbers counted on across a roll-over without the high byte (65535 -> 0, an instrument that
+    leaves the variable leader's byte 11 at 0), in the order of the clock ``t`` (Unix s): a step of more than half of
+    65536 between ensembles next in time is the low word wrapping, not a restart, so sorting by number and the
+    agreement of numbers with the clock see 65535, 65536. Numbers as they are when any uses the high byte (they roll
+    over to 65536 by themselves) or has no variable leader (-1)."""
+    if not len(numbers) or numbers.min() < 0 or numbers.max() > 0xFFFF:
+        return numbers
+    by_time = np.argsort(np.where(np.isfinite(t), t, np.inf), kind="stable")
+    step = np.diff(numbers[by_time])
+    wraps = np.where(np.abs(step) > 0x8000, -np.sign(step), 0)
+    unrolled = numbers.copy()
+    unrolled[by_time[1:]] += 0x10000 * np.cumsum(wraps)
+    return unrolled
 
 
 def _back_note(named: list, t: np.ndarray, i: int, j: int) -> str:
@@ -669,7 +724,7 @@ def _dataset(path: Path, scan: Pd0Scan):
     if scan.repeated:
         warnings.warn(f"{source}: {scan.repeated} ensemble(s) written twice (identical byte for byte to an earlier "
                       f"one: a logger's retry, or a file appended to itself) left out: {_copies_named(scan.copies)}; "
-                      f"{scan.ensembles} read once", RuntimeWarning, stacklevel=3)
+                      f"{scan.ensembles} read once" + _cut_copies_named(scan.cut_copies), RuntimeWarning, stacklevel=3)
     if scan.unplaced:
         raise DataError(f"the ensembles cannot be put in time order: {scan.unplaced}", source, field="time")
     if scan.moved:
@@ -703,6 +758,16 @@ def _copies_named(copies: list) -> str:
             runs.append([number, number, start, start])
     said = [f"ensemble {a} (byte {s})" if a == b else f"ensembles {a}-{b} (bytes {s}-{e})" for a, b, s, e in runs[:4]]
     return ", ".join(said) + (f" and {len(runs) - 4} more run(s)" if len(runs) > 4 else "")
+
+
+def _cut_copies_named(cut_copies: list) -> str:
+    """What the warning on copies adds about the cut ones (:attr:`Pd0Scan.cut_copies`), the first two; "" for none."""
+    said = [f"ensemble {n} (byte {s}) is cut short after {k} bytes by the next ensemble and "
+            + (f"read whole from byte {w}" if w is not None else "the same as the one the file ends in, cut too")
+            for n, s, k, w in cut_copies[:2]]
+    more = f" and {len(cut_copies) - 2} more" if len(cut_copies) > 2 else ""
+    return (f" ({'; '.join(said)}{more}: the cut end of a file with a copy of it joined behind, not a corrupt "
+            "ensemble)") if said else ""
 
 
 def read_pd0_log(path: str | Path, config: SensorConfig | None = None) -> DvlLog:
@@ -791,14 +856,17 @@ def _ensemble_names(ds, scan: Pd0Scan) -> list[str]:
 def read_pd0(path: str | Path, config: SensorConfig | None = None) -> tuple[DvlData, DepthData | None, dict]:
     """Bottom-track beams (Unix-second stamps), the DVL-frame velocity of the pings whose beams cannot be
     used (3-beam solutions), and the pressure depth of a PD0 file in any RDI frame; also a dict of metadata
-    (``pd0_*`` keys, ``streams``: what was read and refused, :mod:`graphnav.core.streams`)."""
-    from graphnav.core.streams import add_note, count_read, count_refused
+    (``pd0_*`` keys, ``streams``: what was read and refused, :mod:`graphnav.core.streams`). Pings that share a time
+    are spread within their clock's tick (:func:`spread_shared_times`; the stream's ``doubted``
+    :data:`SPREAD_TIME`)."""
+    from graphnav.core.streams import add_note, count_read, count_refused, say_doubted
     config = config or SensorConfig()
     log = read_pd0_log(path, config)
     source = log.source
+    t, spread = spread_shared_times(log.t)
     beams_ok = log.beam_valid.sum(axis=1) >= 3
     v_d_used = log.v_d_valid & ~beams_ok              # beams win where they exist: one measurement per ping
-    dvl = DvlData(log.t, np.where(log.beam_valid, log.beams, np.nan), log.beam_valid.copy(), None,
+    dvl = DvlData(t, np.where(log.beam_valid, log.beams, np.nan), log.beam_valid.copy(), None,
                   f"{source}:vel_bt", v_d=np.where(v_d_used[:, None], log.v_d, np.nan), v_d_valid=v_d_used)
     meta: dict = {"pd0_beam_angle_deg": log.instrument["beam_angle_deg"],
                   "pd0_beam_pattern": log.instrument["beam_pattern"],
@@ -808,7 +876,10 @@ def read_pd0(path: str | Path, config: SensorConfig | None = None) -> tuple[DvlD
                   "dvl_resolution_mps": 0.001,     # whole mm/s in any frame: beams rotated back are off that grid
                   "pd0_ensembles": len(log), "pd0_instrument": log.instrument["model"], "pd0_counts": log.counts,
                   "dvl_ping_where": log.where}
-    entry = count_read(meta, "dvl", log.t, f"{source}:vel_bt")
+    entry = count_read(meta, "dvl", t, f"{source}:vel_bt")
+    if spread.any():
+        say_doubted(meta, "dvl", source, _spread_note(log.t, t, spread, log.where), SPREAD_TIME, int(spread.sum()),
+                    stacklevel=3)
     unread = log.counts.get("not read by dolfyn (last ensemble)", 0)
     entry["read"] += unread              # in the file, so read; then refused with its reason
     entry["used"] += unread
@@ -830,13 +901,44 @@ def read_pd0(path: str | Path, config: SensorConfig | None = None) -> tuple[DvlD
     depth = None
     if log.depth_m is not None:
         ok = np.isfinite(log.depth_m)
-        count_read(meta, "depth", log.t, f"{source}:pressure")
+        count_read(meta, "depth", t, f"{source}:pressure")
         for reason in ("bad pressure word", "depth out of range"):
             count_refused(meta, "depth", reason, log.counts.get(reason, 0))
         if ok.any():
-            depth = DepthData(log.t[ok], log.depth_m[ok], f"{source}:pressure")
+            depth = DepthData(t[ok], log.depth_m[ok], f"{source}:pressure")
             meta["depth_where"] = [log.where[i] for i in np.flatnonzero(ok)]
     return dvl, depth, meta
+
+
+#: The ``doubted`` reason (:mod:`graphnav.core.streams`) of the pings whose stamp :func:`spread_shared_times` moved.
+SPREAD_TIME = "ensemble time shared with the ping before (stamp spread after it)"
+
+
+def spread_shared_times(t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Stamps ``t`` (Unix s, in time order) with the pings that share one time spread after the first of them, and
+    which were moved: an instrument pinging faster than its clock ticks (a clock of whole seconds, one that repeats
+    a time) gives several ensembles one time, which a mission's DVL stream (one stamp per ping) cannot hold. The
+    ``k`` pings at a time ``T`` are put ``min(T' - T, tick) / k`` apart from ``T`` in ensemble order, ``T'`` the next
+    time and ``tick`` the clock's (the median step between its distinct times; RDI's 0.01 s when it gives one time
+    only): each stays inside the tick its clock gave it, and a gap after them is not spread over."""
+    t = np.asarray(t, float)
+    if len(t) < 2 or np.all(np.diff(t) > 0):
+        return t, np.zeros(len(t), bool)
+    starts = np.flatnonzero(np.r_[True, np.diff(t) != 0])
+    sizes = np.diff(np.r_[starts, len(t)])
+    room = np.diff(np.r_[t[starts], np.inf])
+    tick = float(np.median(room[:-1])) if len(starts) > 1 else 0.01
+    rank = np.arange(len(t)) - np.repeat(starts, sizes)
+    return t + rank * np.repeat(np.minimum(room, tick) / sizes, sizes), rank > 0
+
+
+def _spread_note(t: np.ndarray, spread: np.ndarray, moved: np.ndarray, where: list[str]) -> str:
+    """The note on the pings :func:`spread_shared_times` moved."""
+    first = int(np.flatnonzero(moved)[0])
+    return (f"{int(moved.sum())} of {len(t)} ping(s) share their ensemble's time (the variable leader's clock) with "
+            f"the ping before (a clock that ticks slower than the instrument pings, or repeats a time): spread after "
+            f"it in ensemble order within the clock's tick, at most {np.max(spread - t):.3f} s after the time "
+            f"recorded, first {where[first]} at {_utc(t[first])}; the DVL's own clock cannot tell these times better")
 
 
 def pd0_geometry(config: SensorConfig, meta: dict) -> SensorConfig:
