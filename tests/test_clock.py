@@ -798,15 +798,16 @@ def test_the_clock_search_builds_its_window_model_once_per_load(tmp_path, monkey
     ``preparation._flu_finds_the_clock``) and once with its y negated (``preparation._y_finds_the_clock``), each
     velocity needing a model of its own: three builds per load. Each of the three built the IMU's integrals again, the
     same IMU's: only the DVL's side differs between them, and they share the IMU's, built once per load."""
-    from graphnav.calibration import clock
+    from graphnav.core import dvl_kinematics
     built, imu_sides = [], []
 
     def counted(*args, **kwargs):
-        built.append(kwargs.get("trim"))
-        imu_sides.append(kwargs.get("ints"))
+        if kwargs.get("trim"):          # the clock search's (clock_model); the speed check's are not trimmed
+            built.append(kwargs["trim"])
+            imu_sides.append(kwargs.get("ints"))
         return dvl_window_model(*args, **kwargs)
-    dvl_window_model = clock.dvl_window_model
-    monkeypatch.setattr(clock, "dvl_window_model", counted)
+    dvl_window_model = dvl_kinematics.dvl_window_model
+    monkeypatch.setattr(dvl_kinematics, "dvl_window_model", counted)
     cfg = SensorConfig()
     cfg.dvl = dataclasses.replace(cfg.dvl, beam_noise_std=0.035)
     sim = simulate_mission(200.0, seed=36, config=cfg)
@@ -866,18 +867,20 @@ def test_an_akit_dvl_explained_poorly_as_stamped_builds_its_clock_model_once(aki
     import shutil
 
     from graphnav.calibration import clock
+    from graphnav.core import dvl_kinematics
     from graphnav.io.loaders import akit_files
     built, searched = [], []
-    dvl_window_model, align = clock.dvl_window_model, clock.align_stream_clocks
+    dvl_window_model, align = dvl_kinematics.dvl_window_model, clock.align_stream_clocks
 
     def counted_build(*args, **kwargs):
-        built.append(kwargs.get("trim"))
+        if kwargs.get("trim"):          # the clock search's (clock_model); the speed check's are not trimmed
+            built.append(kwargs["trim"])
         return dvl_window_model(*args, **kwargs)
 
     def counted_search(*args, **kwargs):
         searched.append(args[1].source)
         return align(*args, **kwargs)
-    monkeypatch.setattr(clock, "dvl_window_model", counted_build)
+    monkeypatch.setattr(dvl_kinematics, "dvl_window_model", counted_build)
     monkeypatch.setattr(clock, "align_stream_clocks", counted_search)
     files = akit_files(akit_dir / "Trajectory13")
     dst = tmp_path / "Trajectory13"

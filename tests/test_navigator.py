@@ -465,3 +465,23 @@ def test_a_hybrid_says_a_total_outage_whether_its_pings_are_logged_without_beams
     (start, end, _), = spans[True]
     assert 39.0 <= start < 40.0 and 129.0 <= end < 130.0
     assert [start, end] == pytest.approx(spans[False][0][:2], abs=1.01)       # one ping interval
+
+
+@pytest.mark.parametrize("run, logged, source", [
+    pytest.param(lambda m: run_graph(m, completer=AverageCompleter(5), batch=True), True, "completed beams",
+                 id="Graph-HN-batch, pings logged"),
+    pytest.param(lambda m: run_ekf(m, completer=AverageCompleter(5)), True, "completed beams", id="HNTC, pings logged"),
+    pytest.param(lambda m: run_ekf(m, completer=AverageCompleter(5)), False, "the IMU alone",
+                 id="HNTC, pings missing"),
+    pytest.param(lambda m: run_ekf(m), True, "the IMU alone", id="TC, pings logged")])
+def test_the_coasting_warning_says_where_the_velocity_comes_from(mission, run, logged, source):
+    """A 90 s total DVL outage warns as pure inertial in every method, but only one without beams to complete
+    navigates on the IMU alone: a hybrid regresses all four beams at each ping logged with no valid beam, and its
+    velocity comes from those. It said "bounded by the IMU alone" for every method."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        run(_pings_in_outage(mission.slice(0, 150), 40.0, 90.0, logged))
+    said, = [str(w.message) for w in caught if "pure inertial for" in str(w.message)]
+    completed = source == "completed beams"
+    assert ("its velocity comes from completed beams, not measured ones" in said) == completed, said
+    assert ("the velocity is bounded by the IMU alone" in said) != completed, said

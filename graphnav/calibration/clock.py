@@ -43,8 +43,8 @@ from scipy.stats import norm, wilcoxon
 
 from graphnav.calibration.reference import _sigma_from_curvature
 from graphnav.core.dvl_kinematics import (COARSE_MAX_WINDOWS, MAX_CLOCK_GAP_S, MAX_WINDOW_GAP_S, MIN_OVERLAP_S,
-                                          ImuIntegrals, dvl_window_model, gaps_said, imu_integrals, offset_grid,
-                                          search_overlap, still_velocity_said, with_enough_pings)
+                                          ImuIntegrals, across_outages_model, gaps_said, imu_integrals, offset_grid,
+                                          outage_cut_model, search_overlap, still_velocity_said, with_enough_pings)
 from graphnav.core.errors import DataError
 from graphnav.core.streams import OFFSET_KEYS, add_note, count_doubted, offset_on_written_stamps, set_span
 from graphnav.core.timeseries import cumulative_integral, interp_rows, on_the_imu_clock, overlap_text
@@ -261,21 +261,17 @@ class ClockOffset:
 # the estimate
 # ------------------------------------------------------------------------------------------------
 def clock_model(imu, dvl, config=None, lever_arm_b=None, window_pings: int | None = None, ints=None):
-    """The window model the clock search scores offsets on (:func:`~graphnav.core.dvl_kinematics.dvl_window_model`,
-    windows trimmed at the IMU's ends; arguments as :func:`estimate_dvl_clock_offset`'s; ``ints``: the IMU's integrals
-    when built already, :class:`ImuSide`). Built once per search: the
-    near and far searches, the stamps' score and the nearer offset's all score this one (``model``). Its windows are
-    cut at steps between pings over :data:`~graphnav.core.dvl_kinematics.MAX_CLOCK_GAP_S`, or over
-    :data:`~graphnav.core.dvl_kinematics.MAX_WINDOW_GAP_S` where the shorter cut leaves under two windows: a DVL
-    pinging in bursts of 5 pings between 6-10 s pauses has no 6 pings between two steps over 5 s, and was refused as
-    too broken up for its clock where windows across the pauses find it 0.3-0.4 s off (600 s simulated, a day off).
+    """The window model the clock search scores offsets on: the one the DVL speed check fits its scale on, its
+    windows cut at outages (:func:`~graphnav.core.dvl_kinematics.outage_cut_model`), here trimmed at the IMU's ends;
+    arguments as :func:`estimate_dvl_clock_offset`'s; ``ints``: the IMU's integrals when built already,
+    :class:`ImuSide`. Built once per search: the near and far searches, the stamps' score and the nearer offset's all
+    score this one (``model``).
 
     Raises:
         DataError: fewer than two windows of pings with a velocity.
     """
-    model, _ = dvl_window_model(imu, dvl, config, lever_arm_b, window_pings, trim=True, max_gap_s=MAX_CLOCK_GAP_S,
-                                ints=ints)
-    return model if len(model.t) >= 2 else _across_short_gaps_model(imu, dvl, config, model)
+    return outage_cut_model(imu, dvl, config, lever_arm_b=lever_arm_b, window_pings=window_pings, ints=ints,
+                            trim=True)
 
 
 class ImuSide:
@@ -293,13 +289,6 @@ class ImuSide:
         if kept is None or kept[0] is not imu:     # the stream is kept, so its id is not another's
             kept = self._built[id(imu)] = (imu, imu_integrals(imu.t, imu.f_b, imu.omega_b))
         return kept[1]
-
-
-def _across_short_gaps_model(imu, dvl, config, model):
-    """The clock model ``model`` with its windows cut only at steps between pings over
-    :data:`~graphnav.core.dvl_kinematics.MAX_WINDOW_GAP_S` (its IMU integrals, lever arm and window kept)."""
-    return dvl_window_model(imu, dvl, config, model.lever, model.window, trim=True, max_gap_s=MAX_WINDOW_GAP_S,
-                            ints=model.imu)[0]
 
 
 def estimate_dvl_clock_offset(imu, dvl, config=None, *, min_overlap_s: float = MIN_OVERLAP_S,
@@ -567,7 +556,7 @@ def _across_short_gaps(imu, dvl, config, min_overlap_s: float, inside: bool, mod
     found within 0.14 s on the longer windows were left on their stamps on the shorter. An offset they find under the
     clear peak (:attr:`ClockOffset.off_its_stamps`) is taken only from at least :data:`ACROSS_MIN_WINDOWS` windows'
     worth of pings."""
-    wider = _across_short_gaps_model(imu, dvl, config, model)
+    wider = across_outages_model(imu, dvl, config, model)
     try:
         across = _searched_offset(imu, dvl, config, min_overlap_s, inside, wider)
     except DataError:

@@ -271,6 +271,16 @@ def _pick(value, facts: dict, key: str):
     return facts.get("given", {}).get(key, AUTO) if _is_auto(value) else value
 
 
+def _given_time_offset(value, facts: dict, meta: dict, stream: str):
+    """The time offset of ``stream`` (``"gt"`` or ``"dvl"``) given (:func:`_pick`: the argument ``value``, else the
+    configuration file's ``{stream}_time_offset_s``; else ``"auto"``) on the stamps the prepare step moves, s. It is
+    given for the stamps as written: where a file is rescaled about its own first stamp, that is another offset
+    (:func:`graphnav.core.streams.offset_on_rescaled_stamps`; judged on the IMU span before, a DVL's stamps were said
+    1.58 s late for a piece 630 s into the published grid)."""
+    value = _pick(value, facts, f"{stream}_time_offset_s")
+    return value if _is_auto(value) else offset_on_rescaled_stamps(meta, stream, float(value))
+
+
 # ------------------------------------------------------------------------------------------------
 # A-KIT
 # ------------------------------------------------------------------------------------------------
@@ -281,13 +291,7 @@ def _prepare_akit(mission: Mission, meta: dict, facts: dict, imu_axis_signs, gt_
                                         ("dvl_time_offset_s", dvl_time_offset_s))
                  if _is_auto(value) and key in facts.get("given", {})}
     imu_axis_signs = _pick(imu_axis_signs, facts, "imu_axis_signs")
-    gt_time_offset_s = _pick(gt_time_offset_s, facts, "gt_time_offset_s")
-
-    def gt_written(offset_s: float) -> float:
-        return offset_on_written_stamps(meta, "gt", offset_s)
-    if not _is_auto(gt_time_offset_s):
-        # given for the GT stamps as written, as the DVL's is (a GT rescaled about its own first stamp: another offset)
-        gt_time_offset_s = offset_on_rescaled_stamps(meta, "gt", float(gt_time_offset_s))
+    gt_time_offset_s = _given_time_offset(gt_time_offset_s, facts, meta, "gt")
     gt_clock, used_as_given = 0.0, None
     if mission.gt is not None and not _is_auto(gt_time_offset_s):
         # a configuration file's offset is checked by the clock search, an argument is the caller's; either is placed
@@ -305,11 +309,7 @@ def _prepare_akit(mission: Mission, meta: dict, facts: dict, imu_axis_signs, gt_
             gt_time_offset_s, gt_clock = 0.0, float(gt_time_offset_s)
         if gt_clock:
             mission = dataclasses.replace(mission, gt=dataclasses.replace(mission.gt, t=mission.gt.t + gt_clock))
-    dvl_time_offset_s = _pick(dvl_time_offset_s, facts, "dvl_time_offset_s")
-    if not _is_auto(dvl_time_offset_s):
-        # given for the stamps as written: where the DVL is rescaled about its own first stamp, that is another offset
-        # (judged on the IMU span before, its stamps were said 1.58 s late for a piece 630 s into the published grid)
-        dvl_time_offset_s = offset_on_rescaled_stamps(meta, "dvl", float(dvl_time_offset_s))
+    dvl_time_offset_s = _given_time_offset(dvl_time_offset_s, facts, meta, "dvl")
     gt_time_offset_s = _off_the_imu_clock(mission.gt, gt_time_offset_s, mission.imu, "gt", meta)
     dvl_time_offset_s = _off_the_imu_clock(mission.dvl, dvl_time_offset_s, mission.imu, "dvl", meta)
     if mission.gt is not None and _is_auto(gt_time_offset_s) and not gt_clock:
@@ -322,8 +322,8 @@ def _prepare_akit(mission: Mission, meta: dict, facts: dict, imu_axis_signs, gt_
         _judge_given_signs(mission, meta, facts, signs)
     if "gt_time_offset_s" in from_file and not _is_auto(gt_time_offset_s) and judged is not None \
             and judged.gt_offset is not None and on_the_imu_clock(mission.gt.t, mission.imu.t) \
-            and _judge_given_offset(meta, facts, "gt", gt_written(gt_clock + float(gt_time_offset_s)),
-                                    gt_written(gt_clock + judged.gt_offset.offset_s), judged.gt_offset.sigma_s,
+            and _judge_given_offset(meta, facts, "gt", _gt_said(meta, gt_clock + float(gt_time_offset_s)),
+                                    _gt_said(meta, gt_clock + judged.gt_offset.offset_s), judged.gt_offset.sigma_s,
                                     mission):
         # doubted by the fine search as by the clock search: the DVL's offset and the depth take the GT where the data
         # put it (0 given on Trajectory13 moved the DVL 0.6 s), the GT handed on keeps the given offset
@@ -388,23 +388,22 @@ def _prepare_akit(mission: Mission, meta: dict, facts: dict, imu_axis_signs, gt_
                                                span)
         if not auto and "dvl_time_offset_s" in from_file:      # est: what the data add to the given offset
             against = "as given" if used_as_given is None else "where the data put it"
-            _judge_given_offset(meta, facts, "dvl", offset_on_written_stamps(meta, "dvl", coarse),
-                                offset_on_written_stamps(meta, "dvl", coarse + est.offset_s), est.sigma_s, mission,
-                                f", against the GT {against}")
+            _judge_given_offset(meta, facts, "dvl", _dvl_said(meta, coarse), _dvl_said(meta, coarse + est.offset_s),
+                                est.sigma_s, mission, f", against the GT {against}")
     if auto:
         est = dataclasses.replace(est, offset_s=est.offset_s + coarse)
         dvl_time_offset_s = est.offset_s
         estimates["dvl"] = est
     if gt_clock and "gt" in estimates:
         estimates["gt"] = dataclasses.replace(estimates["gt"], offset_s=estimates["gt"].offset_s + gt_clock)
-    cfg.gt_time_offset_s = gt_written(gt_clock + float(gt_time_offset_s))
-    cfg.dvl_time_offset_s = offset_on_written_stamps(meta, "dvl", float(dvl_time_offset_s))
+    cfg.gt_time_offset_s = _gt_said(meta, gt_clock + float(gt_time_offset_s))
+    cfg.dvl_time_offset_s = _dvl_said(meta, dvl_time_offset_s)
 
     t_gt = t_depth = g.t + float(gt_time_offset_s)          # g is on the IMU clock already (gt_clock added)
     if used_as_given is not None:
         estimates.pop("gt", None)
-        _depth_where_the_data_put_it(meta, mission.depth, gt_written(used_as_given), cfg.gt_time_offset_s)
-        cfg.gt_time_offset_s = gt_written(used_as_given)
+        _depth_where_the_data_put_it(meta, mission.depth, _gt_said(meta, used_as_given), cfg.gt_time_offset_s)
+        cfg.gt_time_offset_s = _gt_said(meta, used_as_given)
         t_gt = g.t - gt_clock + used_as_given
     gt = GroundTruth(t_gt, g.p_n, g.v_n, g.C_b_n, g.origin_lla, source=g.source)
     if np.any(imu_position_b):
@@ -552,7 +551,7 @@ def _prepare_akit_without_gt(mission: Mission, meta: dict, facts: dict, cfg: Sen
         added_by = ("the vehicle's default" if dvl_time_offset_s == AKIT_DVL_TIME_OFFSET_S else
                     "the DVL clock fit; no GT file")
     # recorded for the stamps as written, as a given one is meant (the stamps are moved by it as rescaled)
-    cfg.dvl_time_offset_s = offset_on_written_stamps(meta, "dvl", float(dvl_time_offset_s))
+    cfg.dvl_time_offset_s = _dvl_said(meta, dvl_time_offset_s)
     cfg.gt_time_offset_s = 0.0
     dvl = dataclasses.replace(mission.dvl, t=mission.dvl.t + float(dvl_time_offset_s))
     if judge and not auto:
@@ -1032,26 +1031,24 @@ def _given_reference_clock(imu: ImuData, gt: GroundTruth, given: float, meta: di
     offsets on the reference's stamps as written (an A-KIT GT rescaled about its own first stamp:
     :func:`graphnav.core.streams.offset_on_written_stamps`), as ``gt_time_offset_s`` is given."""
     key = "gt_time_offset_s"
-
-    def said(offset_s: float) -> float:
-        return offset_on_written_stamps(meta, "gt", offset_s)
     shifted = dataclasses.replace(gt, t=np.asarray(gt.t, float) + given)
     est = _far_reference_clock(imu, shifted)
     if est is None:
         return gt, None
     data_s = given + est.offset_s
-    says = (f"the angles the reference turns through match the gyro's at {said(data_s):+.3f} s (sigma "
+    says = (f"the angles the reference turns through match the gyro's at {_gt_said(meta, data_s):+.3f} s (sigma "
             f"{est.sigma_s:.3f} s; the clock search: the gyro explains {est.peak:.2f} of them there, "
             f"{est.second_peak:.2f} at the next best offset)")
     if on_the_imu_clock(shifted.t, imu.t):
-        _doubt_given(meta, facts, key, "gt", len(gt.t), f"{said(given):+.3f} s", says)
+        _doubt_given(meta, facts, key, "gt", len(gt.t), f"{_gt_said(meta, given):+.3f} s", says)
         meta["gt_clock_doubted"] = data_s
         return gt, data_s
     from graphnav.calibration.clock import add_gt_clock_offset
-    text = (f"{key} = {said(given):+.3f} s is given, but {says}; with it the reference stamps lie at "
+    text = (f"{key} = {_gt_said(meta, given):+.3f} s is given, but {says}; with it the reference stamps lie at "
             f"[{shifted.t[0]:.3f}, {shifted.t[-1]:.3f}] s, sharing {overlap_text(shifted.t, imu.t)} with the IMU span "
-            f"[{imu.t[0]:.3f}, {imu.t[-1]:.3f}] s, and the reference would be left out: {said(data_s):+.3f} s is used "
-            f"instead; set {key} to it if it is known, or to null (or remove the key) to let the data decide")
+            f"[{imu.t[0]:.3f}, {imu.t[-1]:.3f}] s, and the reference would be left out: "
+            f"{_gt_said(meta, data_s):+.3f} s is used instead; set {key} to it if it is known, or to null (or remove "
+            "the key) to let the data decide")
     count_doubted(meta, "gt", f"{key} off the IMU span: the offset the data give used instead", len(gt.t))
     return add_gt_clock_offset(gt, est, meta, text, facts.get("given_by", {}).get(key, "the configuration")), data_s
 
@@ -1367,10 +1364,17 @@ def _clock_said(err: DataError | None, found: dict | None, meta: dict) -> str:
                                                 f"{found['peak']:.2f} of its velocity changes there)")
 
 
+def _gt_said(meta: dict, offset_s: float) -> float:
+    """A GT clock or time offset (s) on the GT stamps the prepare step moves, as a message or the configuration gives
+    it: on the stamps as written, which ``gt_time_offset_s`` is given for (an A-KIT GT rescaled about its own first
+    stamp, :func:`graphnav.core.streams.offset_on_written_stamps`); the same offset for any other."""
+    return offset_on_written_stamps(meta, "gt", offset_s)
+
+
 def _dvl_said(meta: dict, offset_s: float) -> float:
-    """A DVL clock offset (s) a trial or search found on the DVL stamps the prepare step moves, as a message quotes it:
-    on the stamps as written, which ``dvl_time_offset_s`` is given for (an A-KIT file on a clock of its own is rescaled
-    about its own first stamp: 0.0025 of its distance from the folder's origin apart,
+    """A DVL clock or time offset (s) on the DVL stamps the prepare step moves, as a message or the configuration
+    gives it: on the stamps as written, which ``dvl_time_offset_s`` is given for (an A-KIT file on a clock of its own
+    is rescaled about its own first stamp: 0.0025 of its distance from the folder's origin apart,
     :func:`graphnav.core.streams.offset_on_written_stamps`); the same offset for any other."""
     return offset_on_written_stamps(meta, "dvl", float(offset_s))
 

@@ -402,18 +402,34 @@ def dvl_window_model(imu, dvl, config=None, lever_arm_b=None, window_pings: int 
 
 def outage_cut_model(imu, dvl, config=None, **kwargs) -> _WindowModel:
     """:func:`dvl_window_model` (its arguments) with its windows cut at steps between pings over
-    :data:`MAX_CLOCK_GAP_S`, or over :data:`MAX_WINDOW_GAP_S` where the shorter cut leaves under two windows (a DVL
-    pinging in bursts between pauses), as the clock search's (:func:`graphnav.calibration.clock.clock_model`): the model
-    the DVL speed check fits its scale on (:func:`graphnav.calibration.dvl_scale.check_velocity_against_imu`). Across a
-    7 s outage a 20 s window's ``int omega x v`` holds the velocity through it: a 60 s A-KIT piece (Trajectory3 from 120
-    s, 6 pings dropped after the 37th, a day off) fitted its speed 1.48x the IMU's 9.5 s off its clock and was refused
-    as in a wrong unit; cut at 5 s, 1.12x at -0.5 s. The turn fit keeps the 20 s windows no such step crosses
-    (:data:`MAX_TURN_GAP_S`): on the shorter windows the cut leaves, a 60 s piece with a 10-ping outage (Trajectory5
-    from 240 s) fitted a 13 deg turn (sigma 8 deg) and was refused as a yawed DVL."""
+    :data:`MAX_CLOCK_GAP_S`, or over :data:`MAX_WINDOW_GAP_S` where the shorter cut leaves under two windows
+    (:func:`across_outages_model`): the model the clock search scores offsets on
+    (:func:`graphnav.calibration.clock.clock_model`) and the DVL speed check fits its scale on
+    (:func:`graphnav.calibration.dvl_scale.check_velocity_against_imu`).
+
+    A DVL pinging in bursts of 5 pings between 6-10 s pauses has no 6 pings between two steps over 5 s, and was
+    refused as too broken up for its clock where windows across the pauses find it 0.3-0.4 s off (600 s simulated, a
+    day off). Across a 7 s outage a 20 s window's ``int omega x v`` holds the velocity through it: a 60 s A-KIT piece
+    (Trajectory3 from 120 s, 6 pings dropped after the 37th, a day off) fitted its speed 1.48x the IMU's 9.5 s off its
+    clock and was refused as in a wrong unit; cut at 5 s, 1.12x at -0.5 s. The turn fit keeps the 20 s windows no such
+    step crosses (:data:`MAX_TURN_GAP_S`): on the shorter windows the cut leaves, a 60 s piece with a 10-ping outage
+    (Trajectory5 from 240 s) fitted a 13 deg turn (sigma 8 deg) and was refused as a yawed DVL.
+
+    Raises:
+        DataError: fewer than two windows of pings with a velocity.
+    """
     model, _ = dvl_window_model(imu, dvl, config, max_gap_s=MAX_CLOCK_GAP_S, **kwargs)
     if len(model.t) >= 2:
         return model
-    return dvl_window_model(imu, dvl, config, max_gap_s=MAX_WINDOW_GAP_S, **{**kwargs, "ints": model.imu})[0]
+    return across_outages_model(imu, dvl, config, model, kwargs.get("transform"))
+
+
+def across_outages_model(imu, dvl, config, model: _WindowModel, transform: np.ndarray | None = None) -> _WindowModel:
+    """The window model ``model`` of ``imu``, ``dvl`` and ``config`` (the velocity multiplied by ``transform`` as
+    it was built with) with its windows cut only at steps between pings over :data:`MAX_WINDOW_GAP_S` (its IMU
+    integrals, lever arm, window and trim kept)."""
+    return dvl_window_model(imu, dvl, config, model.lever, model.window, transform=transform, ints=model.imu,
+                            trim=model.trim, max_gap_s=MAX_WINDOW_GAP_S)[0]
 
 
 def search_overlap(span_imu: float, span_dvl: float, window_s: float, min_overlap_s: float = MIN_OVERLAP_S) -> float:

@@ -129,6 +129,9 @@ IMU_STALL_CONTEXT_REPEAT_SHARE = 0.1
 #: changes every row; a stall on such a reading integrates as the rest it reads.
 IMU_REST_FORCE_TOL = 0.1
 IMU_REST_RATE_TOL = 2e-3
+#: The size of gravity a reading at rest is held against, m/s^2: midway between the equator's and the poles' (9.806,
+#: each 0.026 off).
+_GRAVITY_MID = (gravity_magnitude(0.0) + gravity_magnitude(math.pi / 2)) / 2
 IMU_STALLED = f"stalled (repeats the row before it in every value for {IMU_STALL_MIN_S:g} s or more)"
 #: Names of the IMU's six values, in the order of ``f_b`` then ``omega_b`` (reasons and warnings of loaders whose
 #: files have no column names of their own).
@@ -560,8 +563,7 @@ def imu_stalled(t: np.ndarray, f_b: np.ndarray, omega_b: np.ndarray) -> np.ndarr
 def _reads_rest(row: np.ndarray) -> bool:
     """Whether one IMU reading (f_b m/s^2 then omega_b rad/s, (6,)) is one of a vehicle at rest: a specific force of
     gravity's size, no turn (:data:`IMU_REST_FORCE_TOL`, :data:`IMU_REST_RATE_TOL`)."""
-    g_mid = (gravity_magnitude(0.0) + gravity_magnitude(math.pi / 2)) / 2      # 9.806, the poles and equator 0.026 off
-    return bool(abs(np.linalg.norm(row[:3]) - g_mid) <= IMU_REST_FORCE_TOL
+    return bool(abs(np.linalg.norm(row[:3]) - _GRAVITY_MID) <= IMU_REST_FORCE_TOL
                 and np.linalg.norm(row[3:]) <= IMU_REST_RATE_TOL)
 
 

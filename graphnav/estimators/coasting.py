@@ -11,7 +11,8 @@ covers the error (velocity NEES, ``graphnav faults --estimators``).
 feeds it every estimate it makes, with the backend's word on whether a DVL update with a measured beam or velocity
 entered). Beams a completer regresses at a ping without any measured beam are no aiding: a total outage is pure
 inertial whether its pings are in the log with no valid beam (NaN, flagged invalid, no bottom lock) or missing from
-it. A stretch of epochs without aiding runs from the last aided epoch before it (or the first epoch). When a stretch
+it, and the warning says where the velocity then comes from: a hybrid method's completed beams, or the IMU alone. A
+stretch of epochs without aiding runs from the last aided epoch before it (or the first epoch). When a stretch
 becomes longer than the limit the monitor warns once, at that epoch ("pure inertial for X s since t0");
 when aiding resumes after such a stretch it warns again ("aiding resumed ... after X s pure inertial") with
 the predicted velocity sigma at the stretch's last un-aided epoch. :meth:`CoastingMonitor.summary` goes into
@@ -79,10 +80,13 @@ class CoastingMonitor:
         self.coasting_since: float | None = None
         self._last_t: float | None = None
         self._warned = False            # the stretch under way has passed max_s (and was warned)
+        self._completed = False         # regressed beams entered in the stretch under way
 
-    def update(self, t: float, aided: bool, cov_v_n=None) -> None:
+    def update(self, t: float, aided: bool, cov_v_n=None, completed: bool = False) -> None:
         """One output epoch at t (s): whether a DVL update with a measured beam or velocity entered there (regressed
-        beams alone do not count), and the velocity covariance (3,3) m^2/s^2 after it (or None)."""
+        beams alone do not count), the velocity covariance (3,3) m^2/s^2 after it (or None), and whether beams a
+        completer regressed entered there (a hybrid method's, at a ping with no measured beam: the warning then says
+        the velocity comes from them, not from the IMU alone)."""
         t = float(t)
         if aided:
             if self._warned:
@@ -90,22 +94,24 @@ class CoastingMonitor:
                 warnings.warn(f"{self.name}: t={t:.2f} s: DVL aiding resumed after {end - start:.0f} s pure inertial "
                               f"({start:.1f}-{end:.1f} s); {_sigma_text(sigma, ' at its end')}",
                               RuntimeWarning, stacklevel=3)
-            self.coasting_since, self._warned = None, False
+            self.coasting_since, self._warned, self._completed = None, False, False
             self._last_t = t
             return
         if self.coasting_since is None:
             self.coasting_since = self._last_t if self._last_t is not None else t
         self._last_t = t
+        self._completed |= bool(completed)
         length = t - self.coasting_since
         self.longest_s = max(self.longest_s, length)
         if length > self.max_s:
             if not self._warned:
                 self._warned = True
                 self.spans.append([self.coasting_since, t, _sigma(cov_v_n)])
+                bound = ("its velocity comes from completed beams, not measured ones" if self._completed
+                         else "the velocity is bounded by the IMU alone")
                 warnings.warn(f"{self.name}: t={t:.2f} s: pure inertial for {length:.0f} s (since "
                               f"{self.coasting_since:.1f} s, no measured DVL beam), longer than max_pure_inertial_s="
-                              f"{self.max_s:g}: the velocity is bounded by the IMU alone; "
-                              f"{_sigma_text(_sigma(cov_v_n))}",
+                              f"{self.max_s:g}: {bound}; {_sigma_text(_sigma(cov_v_n))}",
                               RuntimeWarning, stacklevel=3)
             else:
                 self.spans[-1][1:] = [t, _sigma(cov_v_n)]
@@ -123,13 +129,14 @@ class CoastingMonitor:
 
 
 def check_pure_inertial(name: str, t: np.ndarray, aided: np.ndarray, cov_v_n: np.ndarray | None,
-                        max_s: float = MAX_PURE_INERTIAL_S) -> dict:
+                        max_s: float = MAX_PURE_INERTIAL_S, completed: np.ndarray | None = None) -> dict:
     """:class:`CoastingMonitor` over a finished run: ``t`` (K,) epochs, s; ``aided`` (K,) True where a DVL update
-    with a measured beam or velocity entered; ``cov_v_n`` (K,3,3) velocity covariance, m^2/s^2, or None. Returns its
-    summary."""
+    with a measured beam or velocity entered; ``cov_v_n`` (K,3,3) velocity covariance, m^2/s^2, or None;
+    ``completed`` (K,) True where regressed beams entered (None: nowhere). Returns its summary."""
     monitor = CoastingMonitor(name, max_s)
     for k in range(len(t)):
-        monitor.update(t[k], bool(aided[k]), None if cov_v_n is None else cov_v_n[k])
+        monitor.update(t[k], bool(aided[k]), None if cov_v_n is None else cov_v_n[k],
+                       completed is not None and bool(completed[k]))
     return monitor.summary()
 
 

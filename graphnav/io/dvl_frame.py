@@ -320,6 +320,16 @@ def course_spread_ratio(v: np.ndarray, t_imu: np.ndarray, omega_b: np.ndarray) -
     return float((1.0 - abs(np.mean(np.exp(1j * np.arctan2(v[moving, 1], v[moving, 0]))))) / heading)
 
 
+def _finite_pings_and_imu(t_dvl, v, t_imu, f_b, omega_b):
+    """``(t, v, imu)``: the stamps (s) and velocity (m/s) of the pings whose velocity ``v`` (M,3) is finite, and the
+    IMU (``t_imu`` s, ``f_b`` m/s^2, ``omega_b`` rad/s) as :class:`~graphnav.core.mission.ImuData`: what the
+    kinematics checks judge (arguments as :func:`kinematics_ratio`)."""
+    from graphnav.core.mission import ImuData
+    ok = np.all(np.isfinite(v), axis=1)
+    return (np.asarray(t_dvl, float)[ok], np.asarray(v, float)[ok],
+            ImuData(np.asarray(t_imu, float), np.asarray(f_b, float), np.asarray(omega_b, float)))
+
+
 def _kinematic_residuals(imu, ints, t: np.ndarray, v: np.ndarray
                          ) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
     """``(L, K, fitted)`` of the clock model's windows at offset 0 for the body-frame velocity ``v`` (M,3), m/s: the
@@ -361,10 +371,7 @@ def _kinematics(t_dvl: np.ndarray, v: np.ndarray, t_imu: np.ndarray, f_b: np.nda
     :data:`BODY_KINEMATICS_RATIO` plus 3 sigmas of that. Arguments as :func:`kinematics_ratio`; (NaN, NaN) where it
     is NaN."""
     from graphnav.core.dvl_kinematics import imu_integrals
-    from graphnav.core.mission import ImuData
-    ok = np.all(np.isfinite(v), axis=1)
-    t, v = np.asarray(t_dvl, float)[ok], np.asarray(v, float)[ok]
-    imu = ImuData(np.asarray(t_imu, float), np.asarray(f_b, float), np.asarray(omega_b, float))
+    t, v, imu = _finite_pings_and_imu(t_dvl, v, t_imu, f_b, omega_b)
     try:
         ints = imu_integrals(imu.t, imu.f_b, imu.omega_b)
         body = _kinematic_residuals(imu, ints, t, v)
@@ -445,11 +452,9 @@ def _own_offsets(t_dvl: np.ndarray, v: np.ndarray, t_imu: np.ndarray, f_b: np.nd
     from scipy.optimize import minimize_scalar
 
     from graphnav.core.dvl_kinematics import dvl_window_model, imu_integrals, offset_grid, search_overlap
-    from graphnav.core.mission import DvlData, ImuData, no_beams
+    from graphnav.core.mission import DvlData, no_beams
     nan = (float("nan"),) * 4
-    ok = np.all(np.isfinite(v), axis=1)
-    t, v = np.asarray(t_dvl, float)[ok], np.asarray(v, float)[ok]
-    imu = ImuData(np.asarray(t_imu, float), np.asarray(f_b, float), np.asarray(omega_b, float))
+    t, v, imu = _finite_pings_and_imu(t_dvl, v, t_imu, f_b, omega_b)
     try:
         ints = imu_integrals(imu.t, imu.f_b, imu.omega_b)
         model, t = dvl_window_model(imu, DvlData(t, *no_beams(len(t)), v), ints=ints)
@@ -871,12 +876,10 @@ def turn_against_imu(t_dvl: np.ndarray, v: np.ndarray, t_imu: np.ndarray, f_b: n
     swinging with a period, half a period off), so the turn is known only up to 180 deg. NaN under two windows of
     pings."""
     from graphnav.core.dvl_kinematics import best_speed_fit, dvl_window_model, fits_turned_elsewhere, yaw_sigma
-    from graphnav.core.mission import DvlData, ImuData, no_beams
-    ok = np.all(np.isfinite(v), axis=1)
-    t, v = np.asarray(t_dvl, float)[ok], np.asarray(v, float)[ok]
+    from graphnav.core.mission import DvlData, no_beams
+    t, v, imu = _finite_pings_and_imu(t_dvl, v, t_imu, f_b, omega_b)
     try:
-        model, _ = dvl_window_model(ImuData(np.asarray(t_imu, float), np.asarray(f_b, float),
-                                            np.asarray(omega_b, float)), DvlData(t, *no_beams(len(t)), v))
+        model, _ = dvl_window_model(imu, DvlData(t, *no_beams(len(t)), v))
     except DataError:
         return (float("nan"),) * 4 + (False,)
     offsets = np.atleast_1d(np.asarray(offsets, float))

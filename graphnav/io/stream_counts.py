@@ -5,7 +5,8 @@ A DVL ping is *used* when it has at least one valid beam or a valid instrument v
 and the tightly coupled EKF use single beams); every other ping is *refused* under the first reason that
 applies: the loader's own reasons (an RDI flag, outside the vehicle's envelope, ...), then
 :data:`NO_VALID_BEAM`. Pings with 1-3 valid beams are used, and ``graphnav info`` shows how many beams pings
-had.
+had. A ping with no valid beam measures nothing, but the hybrid methods regress all its beams there (completed, not
+measured): its warning says so.
 """
 from __future__ import annotations
 
@@ -66,8 +67,9 @@ def record_streams(meta: dict, *, imu=None, dvl=None, depth=None, gt=None,
             first = int(np.flatnonzero(left)[0])
             where = (f"line {int(dvl_lines[first])}, t = {dvl.t[first]:.3f} s" if dvl_lines is not None
                      else located([first], t=dvl.t, first=True))
-            warnings.warn(f"{dvl.source}: {int(left.sum())} of {len(left)} DVL ping(s) have no valid beam and are not "
-                          f"used (first at {where})", RuntimeWarning, stacklevel=3)
+            warnings.warn(f"{dvl.source}: {int(left.sum())} of {len(left)} DVL ping(s) have no valid beam (first at "
+                          f"{where}): nothing is measured there; only the hybrid methods use them, with the beams "
+                          "their completer regresses", RuntimeWarning, stacklevel=3)
             count_refused(meta, "dvl", NO_VALID_BEAM, int(left.sum()))
     return meta.get("streams", {})
 
