@@ -525,6 +525,27 @@ def test_imu_messages_with_a_nan_are_refused_and_counted_not_the_whole_bag(tmp_p
         _load(path, mission.config)
 
 
+
+def test_all_zero_imu_messages_are_refused_as_a_loggers_filler_naming_topic_and_message(tmp_path):
+    """A driver writing IMU messages of all zeros while its IMU delivered nothing (0.5 s of them and one alone): they
+    were read as measurements of no acceleration and no turn (only the run dropped them, after the DVL clock search
+    had used them). Now they are refused as the filler they are, warned about once with the topic, the first message
+    and its time, counted under their own reason, and the gap they leave is an IMU gap."""
+    mission = simulate_mission(duration_s=40.0, seed=5)
+    rows = [700, *range(2000, 2050)]
+    mission.imu.f_b[rows] = 0.0
+    mission.imu.omega_b[rows] = 0.0
+    path = bag_driver.write_driver_bag(mission, tmp_path / "filler", leak_sensor=False, housing_sensor=False)
+    m, warned = _load(path, mission.config)
+    filler = "all-zero IMU row (a logger's filler: zero specific force is impossible under gravity)"
+    assert m.meta["streams"]["imu"]["refused"] == {filler: 51}
+    assert len(m.imu.t) == len(mission.imu.t) - 51 and np.all(np.any(m.imu.f_b != 0.0, axis=1))
+    said = [w for w in warned if "all-zero IMU" in w]
+    assert len(said) == 1 and "/imu/data: 51 all-zero IMU message(s)" in said[0]
+    assert "refused (first: message 700 (t = 7.000 s))" in said[0]
+    assert any("a gap of 0.5 s in the stamps" in w for w in warned)
+
+
 def test_an_imu_clock_days_away_moves_every_stream_onto_it(tmp_path, capsys):
     """IMU header stamps 3 days ahead of the other streams' (which are stamped at receive time): the DVL, the
     depth and the GT are all moved onto the IMU clock through the receive clock, so ``info`` and the prepared

@@ -1620,3 +1620,34 @@ def test_an_imu_stalled_for_2_s_is_refused_naming_its_lines_and_bridged_not_inte
     f = np.round((np.array([0.0, 0.0, -9.81]) + 1e-3 * rng.standard_normal((3000, 3))) / 0.05) * 0.05
     w = np.round((np.array([1e-5, 0.0, 4e-5]) + 1e-6 * rng.standard_normal((3000, 3))) / 1e-3) * 1e-3
     assert np.all(f[1:] == f[:-1], axis=1).mean() > 0.5 and not screening.imu_stalled(t, f, w).any()
+
+
+def test_all_zero_imu_rows_are_refused_at_load_before_the_dvl_clock_search_and_said_once(tmp_path):
+    """A logger's all-zero IMU rows (0.5 s of them and two single rows, stamps continuing) were loaded without a word
+    and searched with as no acceleration and no turn: the DVL's clock, 12 s late, was placed 0.55 s off (a 2 s run:
+    88 s off), and only the run dropped them. Now the loader refuses them first, under their own reason, in one
+    warning naming the file, the count and the lines; the clock is found as in the clean log, and the run sees no
+    filler to warn about again (it bridges the gap left as any IMU gap)."""
+    from graphnav.core.config import SensorConfig
+    from graphnav.evaluation.methods import run_method
+    cfg = SensorConfig()
+    cfg.dvl = dataclasses.replace(cfg.dvl, beam_noise_std=0.01)
+    sim = simulate_mission(200.0, seed=1, config=cfg)
+    rows = [5000, *range(8000, 8050), 15000]
+    f_b, omega_b = sim.imu.f_b.copy(), sim.imu.omega_b.copy()
+    f_b[rows], omega_b[rows] = 0.0, 0.0
+    _write(tmp_path / "imu.csv", ["t", "ax", "ay", "az", "gx", "gy", "gz"], [sim.imu.t + T0, f_b, omega_b])
+    _write(tmp_path / "dvl.csv", ["t", "b1", "b2", "b3", "b4"], [sim.dvl.t + T0 + 12.0, sim.dvl.beams])
+    config = _config(tmp_path, sim, {
+        "imu": {"file": "imu.csv", "t": "t", "f_b": ["ax", "ay", "az"], "omega_b": ["gx", "gy", "gz"]},
+        "dvl": {"file": "dvl.csv", "t": "t", "beams": ["b1", "b2", "b3", "b4"], "clock": "auto"}})
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        m = load_mission(tmp_path, config)
+        run_method(m, "TC", "none")
+    np.testing.assert_allclose(m.dvl.t, sim.dvl.t, atol=0.1)
+    filler = "all-zero IMU row (a logger's filler: zero specific force is impossible under gravity)"
+    assert m.meta["streams"]["imu"]["refused"] == {filler: 52}
+    assert len(m.imu.t) == len(sim.imu.t) - 52 and np.all(np.any(m.imu.f_b != 0.0, axis=1))
+    said = [str(w.message) for w in caught if "all-zero IMU row" in str(w.message)]
+    assert len(said) == 1 and f"imu.csv: 52 imu sample(s) refused (52 {filler}) at line(s) 5002, 8002, 8003" in said[0]

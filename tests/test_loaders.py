@@ -1482,3 +1482,26 @@ def test_a_hovering_akit_folder_whose_gyro_is_57_times_too_small_is_warned_about
         warnings.simplefilter("ignore")
         m = load_akit(tmp_path / "clean" / "Trajectory1")
     assert [n for n in m.meta["streams"]["imu"]["notes"] if "gyro's scale judged against the reference attitude" in n]
+
+
+def test_all_zero_imu_rows_of_an_akit_folder_are_refused_before_its_units_and_clocks_are_judged(tmp_path):
+    """An A-KIT folder whose IMU file holds a logger's all-zero rows (one alone, 0.5 s of them): they were read as
+    measurements, only the run dropped them. Now the reader refuses them as filler under their own reason, in one
+    warning naming the file and the lines, and the mission's IMU holds none."""
+    from graphnav.io.export import write_akit
+    from graphnav.io.loaders import read_mission
+    from graphnav.sim.simulate import simulate_mission
+    sim = simulate_mission(40.0, seed=5)
+    rows = [700, *range(2000, 2050)]
+    sim.imu.f_b[rows] = 0.0
+    sim.imu.omega_b[rows] = 0.0
+    paths = write_akit(sim, tmp_path)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        m = read_mission(tmp_path / "Trajectory1")
+    filler = "all-zero IMU row (a logger's filler: zero specific force is impossible under gravity)"
+    assert m.meta["streams"]["imu"]["refused"] == {filler: 51}
+    assert len(m.imu.t) == len(sim.imu.t) - 51 and np.all(np.any(m.imu.f_b != 0.0, axis=1))
+    said = [str(w.message) for w in caught if "all-zero IMU row" in str(w.message)]
+    assert len(said) == 1 and said[0].startswith(f"{paths['IMU']}: 51 imu sample(s) refused (51 {filler}) at "
+                                                 "line(s) 702, 2002, 2003")

@@ -2982,3 +2982,45 @@ def test_a_quiet_imu_resting_on_coarse_counts_between_vibrations_is_not_a_stall(
                 f_b[2000:4000], omega_b[2000:4000] = f_b[2000], [0.0, 0.0, 0.05]       # stalled on a turn
                 assert screening.imu_stalled(t, f_b, omega_b).sum() == 1999
     assert refused == 0
+
+
+def test_all_zero_imu_rows_are_refused_as_filler_and_a_run_past_the_bridge_limit_is_the_imu_stopping():
+    """A logger's all-zero IMU rows (f_b = omega_b = 0 with their stamps: the IMU delivering nothing) passed the
+    loaders' screening without a word and were only dropped when the run integrated: the DVL clock search and the
+    unit checks before it read them as no acceleration and no turn. Now the screening refuses them first, under their
+    own reason, one row among good ones as well as a run, and they are no share of bad data (filler over more than half
+    the file, at its start, is an IMU that started late); a run leaving a gap longer than can be bridged is the
+    IMU stopping, a DataError naming the line after it, as a true gap that long is."""
+    from graphnav.core.mission import MAX_IMU_BRIDGE_S
+    from graphnav.core.screening import imu_implausible, refuse_rows
+    t, x = _quiet_imu(100.0, 30.0)
+    x[[500, 1200]] = 0.0
+    x[2000:2050] = 0.0                                           # 0.5 s
+    masks = imu_implausible(t, x[:, :3], x[:, 3:], SensorConfig(), source="imu.csv")
+    filler = [k for k in masks if k.startswith("all-zero IMU row")]
+    assert filler == ["all-zero IMU row (a logger's filler: zero specific force is impossible under gravity)"]
+    assert np.flatnonzero(masks[filler[0]]).tolist() == [500, 1200, *range(2000, 2050)]
+    assert not np.any([m for k, m in masks.items() if k != filler[0]])
+    # filler over 60 % of the rows, at the start: refused, no DataError; NaN rows over as many: the DataError
+    for value, fails in ((0.0, False), (np.nan, True)):
+        y = x.copy()
+        y[:1800] = value
+        meta: dict = {}
+        count_read(meta, "imu", t, "imu.csv")
+        lines = np.arange(t.size) + 2
+        masks = imu_implausible(t, y[:, :3], y[:, 3:], SensorConfig(), source="imu.csv", meta=meta, lines=lines)
+        if fails:
+            with pytest.raises(DataError, match=r"more than 50%"):
+                refuse_rows(meta, "imu", masks, "imu.csv", lines, t)
+            continue
+        with pytest.warns(RuntimeWarning, match=r"imu\.csv: 1850 imu sample\(s\) refused \(1850 all-zero IMU row "
+                                                r"\(a logger's filler.*at line\(s\) 2, 3, 4"):
+            kept, = refuse_rows(meta, "imu", masks, "imu.csv", lines, t)
+        assert kept.size == t.size - 1850 and meta["streams"]["imu"]["refused"] == {filler[0]: 1850}
+    # between two rows, longer than can be bridged: the IMU stopped there
+    t_long = np.r_[t, t[-1] + MAX_IMU_BRIDGE_S + np.arange(1, 101) * 0.01]
+    y = np.vstack([x, np.zeros((100, 6))])
+    y[-1] = x[-1]
+    with pytest.raises(DataError, match=r"imu\.csv, line 3101: IMU gap left by 99 all-zero IMU row\(s\) \(a "
+                                        r"logger's filler\) of 601 s after t = 29\.990 s is longer than the 600 s"):
+        imu_implausible(t_long, y[:, :3], y[:, 3:], SensorConfig(), source="imu.csv", lines=np.arange(t_long.size) + 2)

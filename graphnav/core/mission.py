@@ -67,11 +67,12 @@ MAX_BRIDGE_FACTOR = 10
 MAX_IMU_BRIDGE_S = 600.0
 
 
-def check_imu_gap(t0: float, t1: float, source: str, index: int | None = None, field: str = "t") -> None:
+def check_imu_gap(t0: float, t1: float, source: str, index: int | None = None, field: str = "t",
+                  what: str = "IMU gap") -> None:
     """DataError when an IMU gap from t0 to t1 (s) is longer than :data:`MAX_IMU_BRIDGE_S` (``index``: the line or
-    index of the sample after it, ``field``: the stamp's column)."""
+    index of the sample after it, ``field``: the stamp's column, ``what``: the gap, as the message names it)."""
     if t1 - t0 > MAX_IMU_BRIDGE_S:
-        raise DataError(f"IMU gap of {t1 - t0:.6g} s after t = {t0:.3f} s is longer than the {MAX_IMU_BRIDGE_S:g} s "
+        raise DataError(f"{what} of {t1 - t0:.6g} s after t = {t0:.3f} s is longer than the {MAX_IMU_BRIDGE_S:g} s "
                         f"that can be bridged: the IMU stopped (or a stamp is wrong{whole_hours(t1 - t0)}); split "
                         "the mission there", source, index, field)
 

@@ -35,7 +35,8 @@ vibrating IMU raises its own threshold, a quiet one keeps the floor. A departing
 goes with it. The spans are in seconds and become rows at the
 IMU's own rate (:func:`imu_spike_rows`); under :data:`IMU_SPIKE_MIN_RATE_HZ` the test is off, with a note. A row
 with a NaN or infinite value (an empty cell, ``inf``) is refused too (:func:`not_finite`), before any other
-rule looks at it.
+rule looks at it, and so is a logger's all-zero filler (:func:`imu_filler`: no measurement, the gap it leaves
+bridged as any IMU gap), before the unit, axis and clock checks judge the IMU by its rows (:func:`imu_unmeasured`).
 
 When each IMU sample was taken (the IMU's rate from its stamps, samples a driver stamped together, a logger's clock
 as coarse as the IMU's period, and restamping them) is decided in :mod:`graphnav.core.imu_timing`: the spike tests
@@ -133,6 +134,11 @@ IMU_REST_RATE_TOL = 2e-3
 #: each 0.026 off).
 _GRAVITY_MID = (gravity_magnitude(0.0) + gravity_magnitude(math.pi / 2)) / 2
 IMU_STALLED = f"stalled (repeats the row before it in every value for {IMU_STALL_MIN_S:g} s or more)"
+#: Reason of an IMU row with all six values exactly 0 (:func:`imu_filler`): a logger's filler while the IMU delivered
+#: nothing (a real accelerometer reads gravity's specific force), dropped as no measurement, the gap it leaves
+#: bridged as any IMU gap. It is silence, not a bad sample: no share of it makes a stream's data wrong
+#: (:func:`over_refused_limit`).
+IMU_FILLER = "all-zero IMU row (a logger's filler: zero specific force is impossible under gravity)"
 #: Names of the IMU's six values, in the order of ``f_b`` then ``omega_b`` (reasons and warnings of loaders whose
 #: files have no column names of their own).
 IMU_FIELDS = ("f_b x", "f_b y", "f_b z", "omega_b x", "omega_b y", "omega_b z")
@@ -360,7 +366,7 @@ def imu_spikes(t: np.ndarray, f_b: np.ndarray, omega_b: np.ndarray, config: Sens
             axes, any sign convention).
         config: ``config.imu`` holds the floors. fields: names of the six values (reasons and warnings).
         usable: (N,) bool rows that may be tested and serve as neighbours (default: the finite ones; all-zero rows
-            never are: they are a logger's filler, which ``ImuData.bridge_gaps`` and the keyframer drop).
+            never are: they are a logger's filler, which :func:`imu_implausible` refuses).
         rate_hz: the IMU's rate, Hz, when the caller has it (default: :func:`imu_rate_hz` of the usable rows'
             stamps).
         dvl: ``(t (M,) s on the IMU's clock, v (M,3) m/s)``, the DVL's velocity in the IMU's axes (any sign per axis;
@@ -369,7 +375,7 @@ def imu_spikes(t: np.ndarray, f_b: np.ndarray, omega_b: np.ndarray, config: Sens
             the DVL saw m/s, field)`` of each run kept on the DVL's word.
     """
     x = np.hstack([np.asarray(f_b, float), np.asarray(omega_b, float)])
-    # an all-zero row is a logger's filler with a rule of its own (ImuData.bridge_gaps drops it, with a warning)
+    # an all-zero row is a logger's filler with a rule of its own (imu_filler)
     ok = np.all(np.isfinite(x), axis=1) & np.any(x != 0.0, axis=1)
     if usable is not None:
         ok &= np.asarray(usable, bool)
@@ -588,17 +594,22 @@ def jumped(departure, before, limit):
 
 
 def imu_implausible(t: np.ndarray, f_b: np.ndarray, omega_b: np.ndarray, config: SensorConfig, fields=IMU_FIELDS,
-                    meta: dict | None = None, source: str = "", dvl: tuple | None = None) -> dict[str, np.ndarray]:
-    """The IMU rows a loader refuses, by reason, disjoint and in the order tested: a NaN or infinite value
-    (:func:`not_finite`), beyond full scale (:func:`imu_out_of_range`), a spike among the rest
-    (:func:`imu_spikes`, with the ``dvl``'s velocity when given), the repeats of a stalled sensor
-    (:func:`imu_stalled`: the run then bridges them as a gap). ``t``: (N,) stamps, s; ``fields``: names of the six
-    values, f_b then omega_b. When the IMU is too slow for the spike test, a note in ``meta``'s IMU stream (when
+                    meta: dict | None = None, source: str = "", dvl: tuple | None = None,
+                    lines: np.ndarray | None = None) -> dict[str, np.ndarray]:
+    """The IMU rows a loader refuses, by reason, disjoint and in the order tested: a logger's all-zero filler
+    (:func:`imu_filler`, before anything judges the IMU by its rows: the run and the DVL clock search then see the gap
+    it leaves, as any IMU gap), a NaN or infinite value (:func:`not_finite`; both :func:`imu_unmeasured`), beyond full
+    scale (:func:`imu_out_of_range`), a spike among the rest (:func:`imu_spikes`, with the ``dvl``'s velocity when
+    given), the repeats of a stalled sensor (:func:`imu_stalled`: the run then bridges them as a gap). ``t``: (N,)
+    stamps, s; ``fields``: names of the six values, f_b then omega_b; ``lines``: the file line of each row, when
+    known. Filler leaving a gap longer than can be bridged is a :class:`DataError` naming ``source``
+    (:func:`check_filler_gaps`). When the IMU is too slow for the spike test, a note in ``meta``'s IMU stream (when
     given) and a warning naming ``source``; a knock kept on the DVL's word: a warning, counted as doubted, and its span
     in ``meta["imu_shocks"]`` (the stream does not test those rows again: ``NavigatorOptions.imu_shocks``)."""
-    nan = not_finite(np.hstack([f_b, omega_b]), fields)
+    unmeasured = imu_unmeasured(t, f_b, omega_b, fields, source, lines)
     out_of_range = imu_out_of_range(f_b, omega_b, config)
-    bad = np.any(list(nan.values()) + list(out_of_range.values()), axis=0)
+    # the filler's stamps are the IMU's clock still ticking: its rate counts them
+    bad = np.any([m for k, m in unmeasured.items() if k != IMU_FILLER] + list(out_of_range.values()), axis=0)
     rate = imu_rate_hz(np.asarray(t, float)[~bad])
     if imu_spike_rows(rate) is None:
         note = imu_spike_off_note(rate)
@@ -609,7 +620,38 @@ def imu_implausible(t: np.ndarray, f_b: np.ndarray, omega_b: np.ndarray, config:
     spikes = imu_spikes(t, f_b, omega_b, config, fields, usable=~bad, rate_hz=rate, dvl=dvl, kept=kept)
     if kept:
         _note_shocks(kept, meta, source)
-    return {**nan, **out_of_range, **spikes, IMU_STALLED: imu_stalled(t, f_b, omega_b)}
+    return {**unmeasured, **out_of_range, **spikes, IMU_STALLED: imu_stalled(t, f_b, omega_b)}
+
+
+def imu_unmeasured(t: np.ndarray, f_b: np.ndarray, omega_b: np.ndarray, fields=IMU_FIELDS, source: str = "",
+                   lines: np.ndarray | None = None) -> dict[str, np.ndarray]:
+    """The IMU rows that hold no measurement, by reason, disjoint: a logger's all-zero filler (:func:`imu_filler`;
+    :func:`check_filler_gaps` with ``source`` and the file ``lines``), a NaN or infinite value (:func:`not_finite`,
+    named by the first of ``fields``). Zero and NaN are so in any unit: a reader refuses them before it judges the
+    IMU's units or axes by its rows. ``t`` (N,) s, ``f_b`` (N,3) m/s^2, ``omega_b`` (N,3) rad/s (any units)."""
+    filler = imu_filler(f_b, omega_b)
+    check_filler_gaps(t, filler, source, lines)
+    return {IMU_FILLER: filler, **not_finite(np.hstack([f_b, omega_b]), fields)}
+
+
+def imu_filler(f_b: np.ndarray, omega_b: np.ndarray) -> np.ndarray:
+    """(N,) bool IMU rows whose specific force ``f_b`` (N,3) m/s^2 and rate ``omega_b`` (N,3) rad/s are all exactly 0:
+    a logger's filler (:data:`IMU_FILLER`), one row among good ones as well as a run."""
+    return ~np.any(np.asarray(f_b, float) != 0.0, axis=1) & ~np.any(np.asarray(omega_b, float) != 0.0, axis=1)
+
+
+def check_filler_gaps(t: np.ndarray, filler: np.ndarray, source: str, lines: np.ndarray | None = None) -> None:
+    """DataError (:func:`graphnav.core.mission.check_imu_gap`, naming ``source``, the stamps around the gap and, when
+    ``lines`` gives it, the file line of the row after it) when a run of ``filler`` rows (N,) bool between two other
+    rows at stamps ``t`` (N,) s leaves an IMU gap longer than can be bridged: the IMU stopped there as it does in a
+    true gap of that length. A run at either end of the file only starts the IMU later or ends it earlier."""
+    from graphnav.core.mission import check_imu_gap
+    t = np.asarray(t, float)
+    for a, last in _runs(np.asarray(filler, bool)):
+        b = last + 1
+        if a > 0 and b < len(t):
+            check_imu_gap(float(t[a - 1]), float(t[b]), source, None if lines is None else int(lines[b]), None,
+                          what=f"IMU gap left by {b - a} all-zero IMU row(s) (a logger's filler)")
 
 
 def _note_shocks(kept: list, meta: dict | None, source: str) -> None:
@@ -942,9 +984,18 @@ def refuse(meta: dict, stream: str, masks: dict[str, np.ndarray], source: str, l
 
 
 def over_refused_limit(meta: dict, stream: str, limit: float = MAX_REFUSED_FRACTION) -> bool:
-    """More than ``limit`` of ``stream`` in ``meta["streams"]`` refused."""
-    entry = meta.get("streams", {}).get(stream, {})
-    return bool(entry.get("read")) and sum(entry.get("refused", {}).values()) > limit * entry["read"]
+    """More than ``limit`` of the measurements of ``stream`` in ``meta["streams"]`` refused (:func:`measurements`)."""
+    read, refused = measurements(meta.get("streams", {}).get(stream, {}))
+    return bool(read) and sum(refused.values()) > limit * read
+
+
+def measurements(entry: dict) -> tuple[int, dict[str, int]]:
+    """``(samples read, {reason: samples refused})`` of a stream's record ``entry`` without a logger's filler
+    (:data:`IMU_FILLER`): rows written while the sensor delivered nothing are a gap in its data, which bridging or a
+    later start bounds, not a share of its measurements gone wrong."""
+    refused = dict(entry.get("refused", {}))
+    filler = refused.pop(IMU_FILLER, 0)
+    return entry.get("read", 0) - filler, refused
 
 
 def check_refused_fraction(meta: dict, limit: float = MAX_REFUSED_FRACTION, advice: dict | None = None) -> None:
@@ -953,8 +1004,9 @@ def check_refused_fraction(meta: dict, limit: float = MAX_REFUSED_FRACTION, advi
     than the units and sensor ranges."""
     for stream, entry in meta.get("streams", {}).items():
         if over_refused_limit(meta, stream, limit):
-            read, refused = entry["read"], sum(entry["refused"].values())
-            ranked = sorted(entry["refused"].items(), key=lambda kv: -kv[1])
+            read, by_reason = measurements(entry)
+            refused = sum(by_reason.values())
+            ranked = sorted(by_reason.items(), key=lambda kv: -kv[1])
             reasons = ", ".join(f"{n} {r}" for r, n in ranked)
             column = re.search(r"in '([^']+)'", ranked[0][0])      # the column the main reason names
             where = "the units, the column map" if meta.get("format") == "csv" else "the units"

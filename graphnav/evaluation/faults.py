@@ -1323,6 +1323,8 @@ CLI_CASES: tuple[CliCase, ...] = (
     _sim("IMU: accelerometer in g", "smooth", E + W, _damage("IMU", _scale_cols(slice(1, 4), 1 / 9.80665))),
     _sim("IMU: 50 NaN rows (0.5 s)", "smooth", W + E, _damage("IMU", _set(_t_between(60.0, 60.5), slice(1, 7),
                                                                              np.nan))),
+    _sim("IMU: 50 all-zero rows (0.5 s, a logger's filler)", "smooth", W,
+         _damage("IMU", _set(_t_between(60.0, 60.5), slice(1, 7), 0.0))),
     _sim("IMU: 5 s of rows deleted (logger stall)", "smooth", W + D, _damage("IMU", _delete_rows(70.0, 75.0))),
     _sim("IMU: a stamp of 0 mid-file", "smooth", E + W, _damage("IMU", _zero_stamp)),
     _sim("IMU: a duplicated stamp", "smooth", E + W, _damage("IMU", _dup_stamp)),

@@ -319,21 +319,30 @@ def shared_clock_step_removed(s: Stream, steps: list, kind: str, source: str, me
 
 
 def imu(s: Stream, t0_ns: int, source: str, meta: dict) -> ImuData:
-    """The IMU stream's samples (FRD, SI): a message with a NaN or infinite value is refused, warned about (its
-    index in the topic and its time) and counted in ``meta`` as the loaders count a refused CSV row; more than
-    half refused is a DataError (:func:`graphnav.core.screening.check_refused_fraction`). A step of the IMU clock or
-    a gap is warned about and counted as a file's is (:func:`graphnav.core.screening.say_imu_stamp_steps`)."""
-    from graphnav.core.screening import check_refused_fraction
+    """The IMU stream's samples (FRD, SI): a message with a NaN or infinite value, or all six values exactly 0 (a
+    logger's filler, :func:`graphnav.core.screening.imu_filler`: the gap it leaves is bridged as any IMU gap), is
+    refused, warned about (its index in the topic and its time) and counted in ``meta`` as the loaders count a
+    refused CSV row; more than half refused is a DataError (:func:`graphnav.core.screening.check_refused_fraction`),
+    and so is filler leaving a gap longer than can be bridged (:func:`graphnav.core.screening.check_filler_gaps`). A
+    step of the IMU clock or a gap is warned about and counted as a file's is
+    (:func:`graphnav.core.screening.say_imu_stamp_steps`)."""
+    from graphnav.core.screening import IMU_FILLER, check_filler_gaps, check_refused_fraction, imu_filler
     f = np.array([vec(m.linear_acceleration) for m in s.rows])
     w = np.array([vec(m.angular_velocity) for m in s.rows])
     t = _rel(s, t0_ns)
     where = messages(s, t0_ns)
-    ok = np.all(np.isfinite(f), axis=1) & np.all(np.isfinite(w), axis=1)
+    finite = np.all(np.isfinite(f), axis=1) & np.all(np.isfinite(w), axis=1)
+    filler = imu_filler(f, w)
+    check_filler_gaps(t, filler, f"{source}:{s.topic}")
+    for bad, what, reason in ((~finite, "IMU message(s) with a NaN or infinite value", "not finite"),
+                              (filler, "all-zero IMU message(s) (a logger's filler: zero specific force is impossible "
+                                       "under gravity; the run bridges the gap left)", IMU_FILLER)):
+        if bad.any():
+            warnings.warn(f"{source}:{s.topic}: {int(bad.sum())} {what} refused (first: "
+                          f"{located(np.flatnonzero(bad), where=where, first=True)})", RuntimeWarning, stacklevel=2)
+            count_refused(meta, "imu", reason, int(bad.sum()))
+    ok = finite & ~filler
     if not ok.all():
-        bad = np.flatnonzero(~ok)
-        warnings.warn(f"{source}:{s.topic}: {bad.size} IMU message(s) with a NaN or infinite value refused (first: "
-                      f"{located(bad, where=where, first=True)})", RuntimeWarning, stacklevel=2)
-        count_refused(meta, "imu", "not finite", bad.size)
         check_refused_fraction(meta)
         t, f, w, where = t[ok], f[ok], w[ok], [x for x, keep in zip(where, ok) if keep]
     say_imu_stamp_steps(t, t, f"{source}:{s.topic}", STAMP_FIELDS[s.stamp_kind], meta, where=where)

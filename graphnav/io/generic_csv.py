@@ -102,6 +102,7 @@ from graphnav.core.screening import (
     NO_BOTTOM_LOCK,
     gt_refusals,
     imu_implausible,
+    imu_unmeasured,
     not_finite,
     on_resolution_grid,
     refuse_rows,
@@ -417,13 +418,14 @@ def load_csv_mission(data: str | Path, config: SensorConfig, pd0_file: Path | No
         if key not in v:
             raise ConfigError(f"csv_columns.imu needs '{key}' (3 column names)")
     fields = _names(spec, "f_b", 3, "imu") + _names(spec, "omega_b", 3, "imu")
-    # an empty, NaN or infinite cell refuses its row (before the unit checks, which need numbers); so do full
-    # scale and spikes once the units and the DVL are known, all with the file's lines and columns (screen_mission
-    # leaves the IMU)
+    # an empty, NaN or infinite cell refuses its row, and so does a logger's all-zero filler (before the unit and axis
+    # checks, which need measurements); so do full scale and spikes once the units and the DVL are known, all with the
+    # file's lines and columns (screen_mission leaves the IMU)
     _count_read(meta, "imu", t_imu, path)
     rows = np.hstack([v["f_b"], v["omega_b"]])
-    t_imu, rows, imu_lines = refuse_rows(meta, "imu", not_finite(rows, fields), str(path), v["_lines"], t_imu, rows,
-                                         v["_lines"])
+    t_imu, rows, imu_lines = refuse_rows(meta, "imu", imu_unmeasured(t_imu, v["f_b"], v["omega_b"], fields, str(path),
+                                                                     v["_lines"]),
+                                         str(path), v["_lines"], t_imu, rows, v["_lines"])
     f_b = rows[:, :3] * declared_scale(spec, "accel_unit", ACCEL_UNITS, "m/s^2", "csv_columns.imu")
     omega_b = rows[:, 3:] * declared_scale(spec, "gyro_unit", GYRO_UNITS, "rad/s", "csv_columns.imu")
     declared = {k: spec[f"{k}_unit"] for k in ("accel", "gyro") if f"{k}_unit" in spec}
@@ -592,7 +594,7 @@ def _screened_imu(t: np.ndarray, f_b: np.ndarray, omega_b: np.ndarray, lines: np
     The DVL as read (``dvl``, on the file's clock) tells a knock, which changed its velocity, from bad samples; the
     spans of the knocks kept (``meta["imu_shocks"]``) are put on the mission's clock."""
     t, f_b, omega_b = refuse_rows(meta, "imu", imu_implausible(t, f_b, omega_b, config, fields, meta, str(path),
-                                                               (dvl.t, ping_velocity_b(dvl, config.dvl))),
+                                                               (dvl.t, ping_velocity_b(dvl, config.dvl)), lines),
                                   str(path), lines, t, f_b, omega_b)
     meta["imu_screened"] = True
     t0 = meta["t0_s"] = float(t[0])

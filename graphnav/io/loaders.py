@@ -445,8 +445,8 @@ def read_akit(folder: str | Path, *, rescale_stamps: bool = True, repair: bool =
     with np.errstate(invalid="ignore"):
         on_imu_axes = (dvl[:, 0], dvl[:, 1:4] @ cfg.dvl.C_d_b.T)
     imu, = refuse_rows(meta, "imu", imu_implausible(imu[:, 0], imu[:, 1:4], imu[:, 4:7], cfg, AKIT_COLUMNS["IMU"][1:],
-                                                    meta, str(files["IMU"]), on_imu_axes), str(files["IMU"]),
-                       lines["imu"], imu)
+                                                    meta, str(files["IMU"]), on_imu_axes, lines["imu"]),
+                       str(files["IMU"]), lines["imu"], imu)
     if gt is not None:
         gt, = refuse_rows(meta, "gt", gt_refused, str(files["GT"]), lines["gt"], gt)
     return AkitRaw(imu, dvl, gt, files, meta, lines["dvl"])
@@ -1215,7 +1215,7 @@ def screen_mission(mission: Mission) -> Mission:
     if not meta.get("imu_screened"):       # a loader that knows the file lines screened the IMU itself
         # the DVL as read tells a knock, which changed its velocity, from a burst of bad samples
         bad = refuse(meta, "imu", imu_implausible(imu.t, imu.f_b, imu.omega_b, cfg, meta=meta, source=imu.source,
-                                                  dvl=(dvl.t, ping_velocity_b(dvl, cfg.dvl))), imu.source)
+                                                  dvl=(dvl.t, ping_velocity_b(dvl, cfg.dvl))), imu.source, t=imu.t)
         imu = _kept(meta, "imu", imu, bad)
     beam_bad = beams_out_of_range(dvl.beams, dvl.valid, cfg.dvl)
     masks = {f"beam beyond {cfg.dvl.max_speed_mps:g} m/s": beam_bad.any(axis=1)}

@@ -340,10 +340,23 @@ def imu_units(t: np.ndarray, f_b: np.ndarray, omega_b: np.ndarray, source: str, 
     """``(f_b m/s^2, omega_b rad/s)`` with swapped blocks, g/milli-g and deg/s detected and converted (with
     a warning and a note), or DataError naming the field. ``t`` in seconds. ``declared``: units the caller
     already applied (``{"accel": "g", "gyro": "deg/s"}``): the data must then agree. ``fields``: the six
-    accelerometer and gyro column names the errors name (default ``f_b`` and ``omega_b``)."""
+    accelerometer and gyro column names the errors name (default ``f_b`` and ``omega_b``). The units are judged on
+    the measurements: a logger's all-zero filler rows (:func:`graphnav.core.screening.imu_filler`, zero in any unit,
+    refused by the screening) stay zero."""
+    from graphnav.core.screening import imu_filler
     declared = dict(declared or {})
     f_b, omega_b = np.asarray(f_b, float), np.asarray(omega_b, float)
     if f_b.size == 0:
+        return f_b, omega_b
+    filler = imu_filler(f_b, omega_b)
+    if filler.any() and not filler.all():
+        real = ~filler
+        f_r, w_r = imu_units(np.asarray(t, float)[real], f_b[real], omega_b[real], source, meta, declared, gravity,
+                             fields)
+        if np.array_equal(f_r, f_b[real]) and np.array_equal(w_r, omega_b[real]):
+            return f_b, omega_b
+        f_b, omega_b = np.zeros_like(f_b), np.zeros_like(omega_b)
+        f_b[real], omega_b[real] = f_r, w_r
         return f_b, omega_b
     f_med = float(np.nanmedian(np.linalg.norm(f_b, axis=1)))
     w_med = float(np.nanmedian(np.linalg.norm(omega_b, axis=1)))
