@@ -293,7 +293,7 @@ def check_stamp_jump(s: Stream, t0_ns: int, source: str) -> None:
         rx_s = (int(s.receive_ns[i]) - int(s.receive_ns[i - 1])) / 1e9
         shared = abs(rx_s) > MAX_STAMP_GAP_S
         why += (f"; the receive time jumps {rx_s:+.6g} s with it: the recorder's clock stepped too, so no clock in "
-                "the bag says what time passed" if shared else
+                "the bag says what time passed: split the bag there" if shared else
                 f"; the receive time steps {rx_s:+.6g} s, but header minus receive time is too spread around it "
                 "to take the step out as the header clock's own")
     raise DataError(f"{at}: {why}", f"{source}:{s.topic}", None, STAMP_FIELDS[s.stamp_kind])
