@@ -173,6 +173,7 @@ def test_bench_finds_a_folder_of_bags(sim, tmp_path):
 
 # --- bags as real drivers record them -----------------------------------------------------------------------
 from graphnav.io import bag_driver, bag_msgs  # noqa: E402
+from graphnav.io.bag_stamps import HEADER_CLOCK_STALL  # noqa: E402
 
 
 @pytest.fixture(scope="module")
@@ -203,14 +204,16 @@ def test_driver_bag_loads_and_reports_each_repair(driver):
     streams = m.meta["streams"]
     # IMU: header stamps all zero -> receive time (the mission clock, exactly)
     assert any("/imu/data: stamps: all header stamps are zero; the bag's receive time is used" in w for w in warned)
-    assert m.meta["clock"]["stamps"] == {"imu": "receive", "dvl": "receive", "depth": "header", "heading": "receive"}
+    assert m.meta["clock"]["stamps"] == {"imu": "receive", "dvl": "header", "depth": "header", "heading": "receive"}
     assert abs(m.meta["clock"]["header_minus_receive_s"]["depth"]) < 1e-9
     np.testing.assert_allclose(m.imu.t, mission.imu.t, atol=2e-9)
     np.testing.assert_allclose(m.imu.omega_b, mission.imu.omega_b, atol=1e-12)
     assert streams["imu"]["read"] == streams["imu"]["used"] == len(mission.imu.t)
-    # DVL: 3 repeated header stamps -> receive time (0.05 s after validity); no ping lost
-    assert "header stamps 3 duplicated" in streams["dvl"]["notes"][0]
-    np.testing.assert_allclose(m.dvl.t, mission.dvl.t + 0.05, atol=2e-9)
+    # DVL: 3 header stamps repeating the one before (the driver's clock stalled) -> those pings alone stamped from
+    # their receive time less the latency of the pings around them (0.05 s); the others keep theirs; no ping lost
+    assert "the header clock stalls: 3 message(s) repeat the stamp before them" in streams["dvl"]["notes"][0]
+    assert streams["dvl"]["doubted"] == {HEADER_CLOCK_STALL: 3}
+    np.testing.assert_allclose(m.dvl.t, mission.dvl.t, atol=2e-9)
     np.testing.assert_array_equal(m.dvl.valid, mission.dvl.valid)
     assert streams["dvl"]["read"] == len(mission.dvl.t)
     # the A50's own velocity, valid with >= 3 beams, its covariance as sigma

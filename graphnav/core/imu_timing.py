@@ -1392,6 +1392,10 @@ CLOCK_STEP_FLOOR_PERIODS = 1e-3
 #: Clean logs with Gaussian jitter reach 4.4 spreads at most (300 simulated logs of 12000 stamps, 50-200 Hz, 0-2 ms of
 #: jitter; in whole ms up to 8.6, under the 1.5 ms the stamps' resolution asks); 7 leaves a step of 2.8 sigma found.
 CLOCK_STEP_SPREADS = 7.0
+#: Samples on the short side of a gap within :data:`CLOCK_STEP_SAMPLES` of the stamps' ends, at least, for it to be
+#: judged (:func:`_gaps_near_the_ends`): ten jittered samples fall three periods apart by chance far less than the
+#: 50 a clock step of a fraction of a period asks.
+CLOCK_STEP_END_SAMPLES = 10
 #: Samples lost, at least, in a gap that is warned about: its step, three periods, is one the run bridges (over
 #: ``IMU_GAP_PERIODS``, 2.5); one sample lost is integrated over, as the stamps say.
 GAP_WARN_SAMPLES = 2
@@ -1424,6 +1428,7 @@ def stamp_steps(t: np.ndarray, period_s: float) -> tuple[np.ndarray, np.ndarray,
     # or late too, and sets holding a step in them jump part of it, or off it where it tilts their line
     runs = np.cumsum(np.diff(np.r_[-2 * n, candidates]) > n)
     found = [(i, *step, r) for i, r in zip(candidates, runs) if (step := _step_at(t, i, resolution, limit))]
+    found += _gaps_near_the_ends(t, period_s, resolution, limit, runs[-1] + 1 if runs.size else 0)
     if not found:
         return none
     i, jump, lost, run = (np.asarray(x) for x in zip(*found))
@@ -1447,27 +1452,46 @@ def _jump_limit(windows: np.ndarray) -> tuple[np.ndarray, float]:
     return jumps, CLOCK_STEP_SPREADS * 1.4826 * float(np.median(np.abs(jumps - np.median(jumps))))
 
 
+def _gaps_near_the_ends(t: np.ndarray, period_s: float, resolution_s: float, limit_s: float, run: int) -> list:
+    """The gaps (:data:`GAP_WARN_SAMPLES` samples lost or more) of IMU stamps ``t`` (s) within
+    :data:`CLOCK_STEP_SAMPLES` of either end, where a full set of samples on both sides of a step (:func:`_step_at`)
+    is not there: judged as there on the :data:`CLOCK_STEP_END_SAMPLES` or more on the short side (a loss at a bag's
+    20th message went unsaid). Only the steps of :data:`GAP_WARN_SAMPLES` and a half periods or more are judged; each
+    as ``(i, jump s, lost, run)``, numbered from ``run``."""
+    n = CLOCK_STEP_SAMPLES
+    ends = np.r_[np.arange(0, min(n - 1, t.size - 1)), np.arange(max(t.size - n, n - 1), t.size - 1)]
+    long = ends[np.diff(t)[ends] >= (GAP_WARN_SAMPLES + 1.5) * period_s]
+    found = []
+    for i in long:
+        step = _step_at(t, int(i), resolution_s, limit_s, least=CLOCK_STEP_END_SAMPLES)
+        if step and step[1] >= GAP_WARN_SAMPLES:
+            found.append((int(i), *step, run + len(found)))
+    return found
+
+
 def _centred(n: int) -> np.ndarray:
     """The indexes of ``n`` samples less their mean: the weights of a least-squares line's slope through them."""
     return np.arange(n) - 0.5 * (n - 1)
 
 
-def _step_at(t: np.ndarray, i: int, resolution_s: float, limit_s: float) -> tuple[float, int] | None:
+def _step_at(t: np.ndarray, i: int, resolution_s: float, limit_s: float, least: int = CLOCK_STEP_SAMPLES
+             ) -> tuple[float, int] | None:
     """``(jump s, lost)`` of the step ``t[i] -> t[i + 1]`` of IMU stamps ``t`` (s) when the :data:`CLOCK_STEP_SAMPLES`
     after it and as many before, each set within :data:`CLOCK_STEP_SPREAD_PERIODS` of a line at their rate (or spread
     as jitter, :func:`_spread_as_jitter`), lie wholly apart on it by :data:`CLOCK_STEP_FLOOR_PERIODS` or jump apart
     (:func:`_jumps_apart`), and their means by more than 1.5 ``resolution_s`` (s); ``lost``: the samples lost at the
     step, 0 where that many periods do not put the sets back among each other (sets spread as their jitter: within
     ``limit_s`` too, s, at least 1.5 ``resolution_s``), give or take 1.5 ``resolution_s`` (a grid step where the rate
-    is off the grid). None else."""
+    is off the grid). None else; ``least``: the samples a set may be cut to near the stamps' ends."""
     n = CLOCK_STEP_SAMPLES
     before, after = t[max(i - n + 1, 0):i + 1], t[i + 1:i + n + 1]
-    if before.size < n or after.size < n:
+    if min(before.size, after.size) < least:
         return None
-    k = _centred(n)      # least squares: the ends alone tilted 1 ms of jitter's sets by a period
-    period = float(k @ (before - np.mean(before)) + k @ (after - np.mean(after))) / (2.0 * float(k @ k))
-    ob = before - t[i] + np.arange(n - 1, -1, -1) * period
-    oa = after - t[i] - np.arange(1, n + 1) * period
+    # least squares: the ends alone tilted 1 ms of jitter's sets by a period
+    kb, ka = _centred(before.size), _centred(after.size)
+    period = float(kb @ (before - np.mean(before)) + ka @ (after - np.mean(after))) / float(kb @ kb + ka @ ka)
+    ob = before - t[i] + np.arange(before.size - 1, -1, -1) * period
+    oa = after - t[i] - np.arange(1, after.size + 1) * period
     spread = np.ptp(ob) + np.ptp(oa)
     jump = float(np.mean(oa) - np.mean(ob))
     floor = CLOCK_STEP_FLOOR_PERIODS * period

@@ -20,8 +20,8 @@ from graphnav.core.errors import ConfigError, DataError
 from graphnav.core.mission import (MAX_DVL_SPEED_MPS, MAX_FIX_SIGMA_M, DepthData, DvlData, GroundTruth, HeadingData,
                                    ImuData, PositionFixData, no_beams)
 from graphnav.core.rotations import C_NED_ENU
-from graphnav.core.screening import (EXACT_COPY, NUDGED_COPY, exact_copies, located, nudged_copies, say_exact_copies,
-                                     say_imu_stamp_steps, say_nudged_copies)
+from graphnav.core.screening import (EXACT_COPY, MAX_STAMP_GAP_S, NUDGED_COPY, exact_copies, located, nudged_copies,
+                                     say_exact_copies, say_imu_stamp_steps, say_nudged_copies)
 from graphnav.core.streams import add_note, count_refused, say_doubted
 from graphnav.io import bag_fields
 from graphnav.io.bag_msgs import MARINE_DVL, WL_DVL
@@ -233,16 +233,19 @@ HEADER_STEP_SPREADS = 10.0
 HEADER_CLOCK_STEP = "stamped after a step of the header clock the receive clock does not show (moved back)"
 
 
-def header_clock_steps_removed(s: Stream, source: str, meta: dict, steps: list | None = None) -> Stream:
-    """``s`` (the IMU topic, on its header stamps) with each forward step of its header clock that the bag's receive
-    clock does not share taken out: a gap of whole periods in the header stamps reads as samples lost, bridged by the
-    run, but when the messages kept arriving at the period (header minus receive time steps by the gap and stays
-    there) no sample was lost: the IMU's clock stepped, and the stamps from that message on are moved back so the
-    step lasts as many periods as the receive time says passed (one, mostly). Each step is warned about naming the
-    topic, the message, its time and the field, and its samples counted as doubted in ``meta``; a gap the receive
-    time shares too (samples lost, or the recorder's clock stepping with it) is left to
-    :func:`graphnav.core.screening.say_imu_stamp_steps`. Each step moved back is appended to ``steps`` (when given)
-    as (the receive time of its first message, ns; the stamps' shift, ns) for :func:`shared_clock_step_removed`."""
+def header_clock_steps_removed(s: Stream, source: str, meta: dict, steps: list | None = None, kind: str = "imu"
+                               ) -> Stream:
+    """``s`` (a topic on its header stamps, read for stream ``kind``: the IMU, DVL, depth, heading or reference) with
+    each forward step of its own header clock that the bag's receive clock does not share taken out: a gap of whole
+    periods in the header stamps reads as samples lost (an IMU's bridged by the run, a DVL's pings missing), but when
+    the messages kept arriving at the period (header minus receive time steps by the gap and stays there) no message
+    was lost: the topic's clock stepped (+5 s, or days: a driver's clock reset), and the stamps from that message on
+    are moved back so the step lasts as many periods as the receive time says passed (one, mostly). Each step is
+    warned about naming the topic, the message, its time and the field, and its messages counted as doubted on
+    ``kind`` in ``meta``; a gap the receive time shares too (messages lost, or the recorder's clock stepping with it)
+    is left as it is (an IMU's to :func:`graphnav.core.screening.say_imu_stamp_steps`). Each step moved back is
+    appended to ``steps`` (when given) as (the receive time of its first message, ns; the stamps' shift, ns) for
+    :func:`shared_clock_step_removed`."""
     from graphnav.core.imu_timing import GAP_WARN_SAMPLES, imu_step_stats
     if s.stamp_kind != "header" or s.receive_ns is None or len(s.t_ns) < 3:
         return s
@@ -267,11 +270,33 @@ def header_clock_steps_removed(s: Stream, source: str, meta: dict, steps: list |
             steps.append((int(rx_ns[i + 1]), shift_ns))
         at = _named(np.array([i + 1 if s.index is None else s.index[i + 1]]), t_ns[i + 1:i + 2] + shift_ns, t_ns[0])[0]
         text = (f"{s.topic}, {at}, field '{STAMP_FIELDS['header']}': the header clock steps {jump:+.3f} s while the "
-                f"messages kept arriving (receive time {(rx_ns[i + 1] - rx_ns[i]) / 1e9:+.3f} s): no samples lost; "
+                f"messages kept arriving (receive time {(rx_ns[i + 1] - rx_ns[i]) / 1e9:+.3f} s): no messages lost; "
                 f"the stamps from this message on are moved back by {shift_ns / 1e9:.3f} s onto the clock before "
                 f"the step")
-        say_doubted(meta, "imu", source, text, HEADER_CLOCK_STEP, len(t_ns) - i - 1, stacklevel=2)
+        say_doubted(meta, kind, source, text, HEADER_CLOCK_STEP, len(t_ns) - i - 1, stacklevel=2)
     return dataclasses.replace(s, t_ns=t_ns) if moved else s
+
+
+def check_stamp_jump(s: Stream, t0_ns: int, source: str) -> None:
+    """Refuse a topic whose stamps still jump by more than :data:`~graphnav.core.screening.MAX_STAMP_GAP_S` (days)
+    once its own header clock steps are taken out (:func:`header_clock_steps_removed`): a DataError naming the topic,
+    the message and the stamp field, saying whether the receive time jumped with it (the recorder's clock stepped
+    too, so no clock in the bag says what time passed) or not (a header clock step the receive time could not
+    confirm: header minus receive time too spread around it)."""
+    from graphnav.core.screening import stamp_jump
+    jump = stamp_jump((np.asarray(s.t_ns, np.int64) - t0_ns) / 1e9)
+    if jump is None:
+        return
+    i, why = jump
+    at = _named(np.array([i if s.index is None else s.index[i]]), s.t_ns[i:i + 1], t0_ns)[0]
+    if s.stamp_kind == "header" and s.receive_ns is not None:
+        rx_s = (int(s.receive_ns[i]) - int(s.receive_ns[i - 1])) / 1e9
+        shared = abs(rx_s) > MAX_STAMP_GAP_S
+        why += (f"; the receive time jumps {rx_s:+.6g} s with it: the recorder's clock stepped too, so no clock in "
+                "the bag says what time passed: split the bag there" if shared else
+                f"; the receive time steps {rx_s:+.6g} s, but header minus receive time is too spread around it "
+                "to take the step out as the header clock's own")
+    raise DataError(f"{at}: {why}", f"{source}:{s.topic}", None, STAMP_FIELDS[s.stamp_kind])
 
 
 def _latency_step(latency: np.ndarray, k: int) -> tuple[float, float]:

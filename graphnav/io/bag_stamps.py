@@ -1,8 +1,10 @@
 """Which stamps to trust in a bag, per stream and between streams.
 
 Per stream (:func:`choose_stamps`): the header stamps (the time of validity) when they are sane: none zero,
-strictly increasing. Otherwise the bag's receive time (when the recorder got the message), with a warning and
-a note in ``Mission.meta["streams"]`` saying which and why: drivers that leave the stamp at zero, stamp a
+strictly increasing. A topic other than the IMU's whose header clock stalls for a few messages (repeats one
+stamp while the receive time runs on) keeps its header stamps but for those messages, stamped from their receive
+time (:func:`stall_restamped`). Otherwise the bag's receive time (when the recorder got the message), with a warning
+and a note in ``Mission.meta["streams"]`` saying which and why: drivers that leave the stamp at zero, stamp a
 burst of samples with one time, or stamp from a clock that jumps. Samples that even the receive time cannot
 order (two messages received in the same nanosecond) are dropped and counted.
 
@@ -17,7 +19,7 @@ import warnings
 
 import numpy as np
 
-from graphnav.core.streams import add_note, count_refused
+from graphnav.core.streams import add_note, count_refused, say_doubted
 
 #: Offsets between a stream's header clock and the bag's receive clock below this are latency, not another
 #: clock, s (a driver's latency is milliseconds to a second).
@@ -40,6 +42,47 @@ def _why_not_header(header_ns: np.ndarray) -> str | None:
     return None
 
 
+#: A topic's header clock stalls (repeats a stamp) on at most this share of its messages for only those to be
+#: restamped (:func:`stall_restamped`): a driver stamping bursts of k samples with one time repeats (k - 1) / k of
+#: them, half or more.
+STALL_MAX_SHARE = 0.25
+#: Messages either side of a stalled one whose header minus receive time (the recorder's latency) restamps it.
+STALL_LATENCY_MESSAGES = 10
+HEADER_CLOCK_STALL = "stamped while the header clock stalled (restamped from the receive time)"
+
+
+def stall_restamped(header_ns: np.ndarray, receive_ns: np.ndarray, stream: str) -> np.ndarray | None:
+    """Which messages of a topic (not the IMU's, whose samples may share a stamp in packets) repeat the header stamp
+    before them while their receive time ``receive_ns`` (ns) advanced: a header clock that stalled for a few messages
+    (at most :data:`STALL_MAX_SHARE` of them, none stamped zero or back), each one's stamp the stall's first. None when
+    it is not such a stall."""
+    if stream == "imu" or len(header_ns) < 3 or np.any(header_ns == 0):
+        return None
+    step = np.diff(header_ns)
+    stalled = np.r_[False, step == 0]
+    if np.any(step < 0) or not stalled.any() or stalled.mean() > STALL_MAX_SHARE:
+        return None
+    if np.any(np.diff(receive_ns)[stalled[1:]] <= 0):        # received together: copies, not a stall
+        return None
+    return stalled
+
+
+def _stall_stamps(header_ns: np.ndarray, receive_ns: np.ndarray, stalled: np.ndarray) -> tuple[np.ndarray, float]:
+    """(the header stamps ns with the ``stalled`` messages' replaced by their receive time plus the median header minus
+    receive time of the :data:`STALL_LATENCY_MESSAGES` messages not stalled either side, the first's latency s)."""
+    t_ns = header_ns.copy()
+    latency = header_ns - receive_ns
+    ok = np.flatnonzero(~stalled)
+    first = None
+    for k in np.flatnonzero(stalled):
+        at = int(np.searchsorted(ok, k))
+        near = ok[max(0, at - STALL_LATENCY_MESSAGES):at + STALL_LATENCY_MESSAGES]
+        shift = int(np.median(latency[near]))
+        t_ns[k] = receive_ns[k] + shift
+        first = shift if first is None else first
+    return t_ns, first / 1e9
+
+
 def choose_stamps(header_ns: np.ndarray | None, receive_ns: np.ndarray, meta: dict, stream: str, label: str
                   ) -> tuple[np.ndarray, np.ndarray, str]:
     """(stamps ns, kept message indices, ``"header"`` or ``"receive"``) for one stream.
@@ -55,6 +98,18 @@ def choose_stamps(header_ns: np.ndarray | None, receive_ns: np.ndarray, meta: di
         why = _why_not_header(header_ns)
         if why is None:
             return header_ns, np.arange(len(header_ns)), "header"
+        stalled = stall_restamped(header_ns, receive_ns, stream)
+        if stalled is not None:
+            t_ns, latency_s = _stall_stamps(header_ns, receive_ns, stalled)
+            if np.all(np.diff(t_ns) > 0):
+                k = int(np.flatnonzero(stalled)[0])
+                say_doubted(meta, stream, label, f"message {k}, field 'header.stamp': the header clock stalls: "
+                            f"{int(stalled.sum())} message(s) repeat the stamp before them while the receive time "
+                            f"runs on ({(receive_ns[k] - receive_ns[k - 1]) / 1e9:+.3f} s at the first); those are "
+                            f"stamped from their receive time plus the topic's latency around them ({latency_s:+.3f} "
+                            "s), the others keep their header stamps", HEADER_CLOCK_STALL, int(stalled.sum()),
+                            stacklevel=2)
+                return t_ns, np.arange(len(header_ns)), "header"
     note = f"stamps: {why}; the bag's receive time is used"
     add_note(meta, stream, note)
     if header_ns is not None:

@@ -59,7 +59,7 @@ from graphnav.core.errors import ConfigError, DataError
 from graphnav.core.imu_timing import shown_rate_hz
 from graphnav.core.mission import Mission
 from graphnav.core.screening import say_close_samples
-from graphnav.core.streams import add_note, count_read, count_refused, set_span
+from graphnav.core.streams import add_note, count_doubted, count_read, count_refused, set_span
 from graphnav.io import bag_convert as conv
 from graphnav.io import bag_fields
 from graphnav.io.bag_convert import ENU_NED, FLU_FRD, PRESSURE, TWIST_DVL, Stream
@@ -327,10 +327,12 @@ def read_streams(path: str | Path, topics: dict[str, str] | None = None, wanted:
 
 
 def _record(meta: dict, stream: str, s: Stream, t0_ns: int, source: str, warned: bool = False) -> None:
-    """Counts and notes of a chosen topic: what it read (including messages its stamps could not order and those
-    written twice, warned about here unless ``warned``: the IMU's topic read again as the heading), and, but for a
-    ``sensor_msgs/Imu`` topic (whose steps :func:`graphnav.io.bag_convert.imu` says), the messages stamped on the
+    """Counts and notes of a chosen topic (refused when its stamps jump by days,
+    :func:`graphnav.io.bag_convert.check_stamp_jump`): what it read (including messages its stamps could not order
+    and those written twice, warned about here unless ``warned``: the IMU's topic read again as the heading; the
+    stamps repaired and doubted), and, but for a ``sensor_msgs/Imu`` topic (whose steps :func:`graphnav.io.bag_convert.imu` says), the messages stamped on the
     point of the one before them, doubted (:func:`graphnav.core.screening.say_close_samples`), as a log's rows are."""
+    conv.check_stamp_jump(s, t0_ns, source)
     t = (s.t_ns - t0_ns) / 1e9
     dropped = s.n_read - len(t)
     count_read(meta, stream, np.concatenate([t, np.full(dropped, np.nan)]), f"{source}:{s.topic} ({s.msgtype})",
@@ -338,6 +340,8 @@ def _record(meta: dict, stream: str, s: Stream, t0_ns: int, source: str, warned:
     for entry in s.log.values():
         for reason, n in entry["refused"].items():
             count_refused(meta, stream, reason, n)
+        for reason, n in entry.get("doubted", {}).items():
+            count_doubted(meta, stream, reason, n)
         for note in entry["notes"]:
             add_note(meta, stream, note)
     if not warned:
@@ -397,10 +401,14 @@ def load_bag(path: str | Path, config: SensorConfig | None = None, topics: dict[
     steps: list = []
     stepped = conv.header_clock_steps_removed(imu_s, source, meta, steps)
     # the IMU's topic read again as the heading (an AHRS) moves with it; the other topics whose header clock stepped
-    # with the IMU's move back with it
-    streams = {kind: [stepped if s is imu_s else s if kind == "imu" else
-                      conv.shared_clock_step_removed(s, steps, kind, source, meta) for s in found]
-               for kind, found in streams.items()}
+    # with the IMU's move back with it, then each other topic's own header clock steps are taken out as the IMU's
+    own: dict[int, Stream] = {id(imu_s): stepped}
+    for kind, found in streams.items():
+        for s in found:
+            if kind != "imu" and id(s) not in own:      # a topic read for two streams is moved (and warned) once
+                shared = conv.shared_clock_step_removed(s, steps, kind, source, meta)
+                own[id(s)] = conv.header_clock_steps_removed(shared, source, meta, kind=kind)
+    streams = {kind: [own.get(id(s), s) for s in found] for kind, found in streams.items()}
     imu_s = stepped
     dvl_s = streams["dvl"][0] if "dvl" in topics else _pick_one("dvl", streams["dvl"], source)
     t0_ns = int(imu_s.t_ns[0])

@@ -1,0 +1,170 @@
+"""A bag straight from the drivers: a topic's own header clock stepping (+5 s, or days) or stalling while its
+messages keep arriving on the recorder's receive clock, and an IMU losing messages near the bag's start. Short
+simulated missions written as bags and rewritten message by message."""
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pytest
+
+from graphnav.core.errors import DataError
+from graphnav.io import bag_convert, bag_stamps, bags
+from graphnav.sim.simulate import simulate_mission
+
+T0_NS = 1_700_000_000_123_456_789
+NS = 1_000_000_000
+
+
+@pytest.fixture(scope="module")
+def sim(tmp_path_factory):
+    root = tmp_path_factory.mktemp("bags_clock")
+    mission = simulate_mission(duration_s=30.0, seed=5)
+    path = bags.write_mission_bag(mission, root / "clean", t0_unix_ns=T0_NS)
+    return mission, path, root
+
+
+def _stamp_ns(msg) -> int:
+    return msg.header.stamp.sec * NS + msg.header.stamp.nanosec
+
+
+def _set_stamp(msg, ns: int) -> None:
+    msg.header.stamp.sec, msg.header.stamp.nanosec = ns // NS, ns % NS
+
+
+def _rewritten(clean, path, change):
+    """The bag ``clean`` written again to ``path`` with each message through ``change(topic, k, msg, t_ns)`` (``k``:
+    its index in the topic), which returns its receive time (ns) or None to drop it."""
+    from rosbags.highlevel import AnyReader
+    from test_bags import _bag_with
+    store = bags.typestore()
+    rows, seen = [], {}
+    with AnyReader([clean], default_typestore=store) as reader:
+        for conn, t_ns, raw in reader.messages():
+            k = seen[conn.topic] = seen.get(conn.topic, -1) + 1
+            msg = store.deserialize_cdr(raw, conn.msgtype)
+            t_ns = change(conn.topic, k, msg, t_ns)
+            if t_ns is not None:
+                rows.append((conn.topic, conn.msgtype, t_ns, msg))
+    return _bag_with(path.parent, path.name, sorted(rows, key=lambda r: r[2]), store)
+
+
+def _load(path):
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        m = bags.load_bag(path)
+    return m, [str(w.message) for w in caught]
+
+
+STREAMS = {"/dvl/data": "dvl", "/pressure": "depth", "/reference/odometry": "gt"}
+
+
+@pytest.mark.parametrize("topic", list(STREAMS))
+def test_a_topics_own_header_clock_step_is_moved_back_as_the_imus(sim, tmp_path, topic):
+    """The DVL's (the pressure's, the reference's) header clock alone steps +5 s or +2 days at 15 s while its messages
+    keep arriving on the receive clock and every other topic is fine: the DVL's pings were left 5 s late for the
+    second half (its velocities set against the IMU's of 5 s before) and a 2-day step refused the whole bag naming
+    field 't' and a "sample". Now the stamps after the step are moved back onto the clock before it, as the IMU's
+    are: warned naming the topic, the message, its time and the field, and counted as doubted on its stream."""
+    mission, clean_path, _ = sim
+    clean, _ = _load(clean_path)
+    stream = STREAMS[topic]
+    at_ns = T0_NS + 15 * NS
+    for step_s in (5.0, 2 * 86400.0):
+        first = {}
+
+        def change(t, k, msg, rx):
+            if t == topic and rx >= at_ns:
+                first.setdefault("k", k)
+                _set_stamp(msg, _stamp_ns(msg) + int(step_s * NS))
+            return rx
+        m, warned = _load(_rewritten(clean_path, tmp_path / f"{stream}{step_s:g}", change))
+        np.testing.assert_allclose(getattr(m, stream).t, getattr(clean, stream).t, atol=2e-9)
+        np.testing.assert_array_equal(m.imu.t, clean.imu.t)
+        n = len(getattr(clean, stream).t)
+        assert m.meta["streams"][stream]["doubted"] == {bag_convert.HEADER_CLOCK_STEP: n - first["k"]}
+        said = [w for w in warned if "the header clock steps" in w]
+        period = 1.0 if stream == "dvl" else 0.1
+        assert len(said) == 1 and said[0].startswith(
+            f"{tmp_path / f'{stream}{step_s:g}'}: {topic}, message {first['k']} (t = {15.0 + step_s:.3f} s), field "
+            f"'header.stamp': the header clock steps {step_s + period:+.3f} s while the messages kept arriving "
+            f"(receive time {period:+.3f} s)"), said
+
+
+def test_a_dvl_clock_jumping_days_with_the_receive_clock_is_refused_naming_the_topic_and_message(sim, tmp_path):
+    """The DVL's header stamps and their receive time both jump two days at 15 s (the recorder's clock stepped with
+    the DVL's): no clock in the bag says what time passed. Refused naming the topic, the message and the header
+    stamp field, saying the receive time jumped with it (it named field 't' and "sample 15 of the stream")."""
+    _, clean_path, _ = sim
+    at_ns = T0_NS + 15 * NS
+
+    def change(t, k, msg, rx):
+        if t == "/dvl/data" and rx >= at_ns:
+            _set_stamp(msg, _stamp_ns(msg) + 2 * 86400 * NS)
+            return rx + 2 * 86400 * NS
+        return rx
+    with pytest.raises(DataError, match=r"message 15 \(t = 172815\.000 s\): time stamp jumps by 172801 s") as err:
+        _load(_rewritten(clean_path, tmp_path / "both", change))
+    assert (err.value.source, err.value.field) == (f"{tmp_path / 'both'}:/dvl/data", "header.stamp")
+    assert str(err.value).endswith("the receive time jumps +172801 s with it: the recorder's clock stepped too, so no "
+                                   "clock in the bag says what time passed: split the bag there")
+
+
+def test_an_imu_losing_half_a_second_at_its_20th_message_is_warned_as_a_gap(sim, tmp_path):
+    """Half a second of IMU messages lost from the 20th on (header and receive time both gap): a loss later is warned
+    as a gap the run bridges, this one was not (the step test wants 50 stamps either side, and the bag's start has 20).
+    Now a gap near either end is judged on the 10 or more stamps there are on its short side: warned naming the
+    message and counted as doubted, as any gap; a clean start says nothing."""
+    from graphnav.core.imu_timing import stamp_steps
+    from graphnav.core.screening import IMU_GAP
+    _, clean_path, _ = sim
+    for first in (20, 2930):
+        lost = _rewritten(clean_path, tmp_path / f"loss{first}",
+                          lambda t, k, msg, rx: None if t == "/imu/data" and first <= k < first + 50 else rx)
+        m, warned = _load(lost)
+        gaps = [w for w in warned if "a gap of 0.5 s in the stamps" in w]
+        assert len(gaps) == 1 and f"/imu/data, message {first} (t = " in gaps[0], gaps
+        assert m.meta["streams"]["imu"]["doubted"] == {IMU_GAP: 1}
+    t = np.delete(np.arange(3000) * 0.01, np.arange(5, 55))
+    assert stamp_steps(t, 0.01)[0].size == 0            # 5 stamps before it: too few to judge
+    t = np.arange(3000) * 0.01 + np.random.default_rng(1).normal(0.0, 0.002, 3000)
+    assert stamp_steps(np.sort(t), 0.01)[0].size == 0   # jitter alone: nothing at the ends
+    _, warned = _load(clean_path)
+    assert not [w for w in warned if "a gap of" in w]
+
+
+def test_a_dvl_header_clock_stalling_restamps_those_pings_alone(sim, tmp_path):
+    """The DVL's header clock stalls: messages 11 to 14 repeat message 10's stamp while they keep arriving every
+    second, 0.25-0.35 s after their time (the driver's latency). The whole topic went onto the receive time, every
+    ping 0.25-0.35 s late; now the stalled pings alone are stamped from their receive time less the latency of the
+    pings around them, the others keep their header stamps: warned naming the message and the field, counted as
+    doubted. Repeats on over a quarter of the messages (a driver stamping bursts) still go onto the receive time."""
+    _, clean_path, _ = sim
+    clean, _ = _load(clean_path)
+    rng = np.random.default_rng(2)
+
+    def stalled(last):
+        held = {}
+
+        def change(t, k, msg, rx):
+            if t != "/dvl/data":
+                return rx
+            if k == 10:
+                held["ns"] = _stamp_ns(msg)
+            if 10 < k <= last:
+                _set_stamp(msg, held["ns"])
+            return rx + int((0.25 + 0.1 * rng.random()) * NS)
+        return change
+    m, warned = _load(_rewritten(clean_path, tmp_path / "stall", stalled(14)))
+    dt = m.dvl.t - clean.dvl.t
+    assert np.all(np.abs(np.delete(dt, np.arange(11, 15))) < 2e-9)
+    assert np.all(np.abs(dt[11:15]) < 0.06), dt[11:15]
+    assert m.meta["clock"]["stamps"]["dvl"] == "header"
+    assert m.meta["streams"]["dvl"]["doubted"] == {bag_stamps.HEADER_CLOCK_STALL: 4}
+    said = [w for w in warned if "the header clock stalls" in w]
+    assert len(said) == 1 and said[0].startswith(f"{tmp_path / 'stall'}:/dvl/data: message 11, field 'header.stamp': "
+                                                 "the header clock stalls: 4 message(s) repeat"), said
+    m, _ = _load(_rewritten(clean_path, tmp_path / "two", stalled(12)))
+    assert m.meta["streams"]["dvl"]["doubted"] == {bag_stamps.HEADER_CLOCK_STALL: 2}
+    m, _ = _load(_rewritten(clean_path, tmp_path / "burst", stalled(13 + 10)))
+    assert m.meta["clock"]["stamps"]["dvl"] == "receive"
