@@ -20,7 +20,7 @@ from graphnav.estimators.graph import GraphOptions, InitialState
 from graphnav.estimators.navigator import Navigator, NavigatorOptions
 from graphnav.estimators.replay import first_ping_time, replay
 from graphnav.estimators.runs import run_ekf, run_graph
-from graphnav.evaluation.methods import METHODS
+from graphnav.evaluation.methods import METHODS, run_method
 from graphnav.evaluation.metrics import vrmse
 from graphnav.sim.simulate import simulate_mission
 
@@ -485,3 +485,17 @@ def test_the_coasting_warning_says_where_the_velocity_comes_from(mission, run, l
     completed = source == "completed beams"
     assert ("its velocity comes from completed beams, not measured ones" in said) == completed, said
     assert ("the velocity is bounded by the IMU alone" in said) != completed, said
+
+
+@pytest.mark.parametrize("method", ["HNTC", "Graph-HN"])
+def test_a_hybrid_whose_completions_are_all_screened_out_says_the_imu_alone_bounds_its_velocity(mission, method):
+    """The registry's hybrids screen each completion against their own prediction. Through this 90 s total outage
+    (pings logged with no valid beam) the screening takes out all 360 of them, so nothing but the IMU carries the
+    velocity; the warning said it came from completed beams, counting the beams offered as if they had entered."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        sol = run_method(_pings_in_outage(mission.slice(0, 150), 40.0, 90.0, True), method, "0-beams",
+                         backend="fixed-lag")
+    said, = [str(w.message) for w in caught if "pure inertial for" in str(w.message)]
+    assert sol.info["regressed_screening"]["decorrelated_out"] >= 4 * 85, sol.info["regressed_screening"]
+    assert "the velocity is bounded by the IMU alone" in said and "completed beams" not in said, said

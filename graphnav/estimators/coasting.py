@@ -11,9 +11,9 @@ covers the error (velocity NEES, ``graphnav faults --estimators``).
 feeds it every estimate it makes, with the backend's word on whether a DVL update with a measured beam or velocity
 entered). Beams a completer regresses at a ping without any measured beam are no aiding: a total outage is pure
 inertial whether its pings are in the log with no valid beam (NaN, flagged invalid, no bottom lock) or missing from
-it, and the warning says where the velocity then comes from: a hybrid method's completed beams, or the IMU alone. A
-stretch of epochs without aiding runs from the last aided epoch before it (or the first epoch). When a stretch
-becomes longer than the limit the monitor warns once, at that epoch ("pure inertial for X s since t0");
+it, and the warning says where the velocity then comes from: a hybrid method's completed beams (those its screening
+let in: offered ones it took out are none), or the IMU alone. A stretch of epochs without aiding runs from the last
+aided epoch before it (or the first epoch). When a stretch becomes longer than the limit the monitor warns once, at that epoch ("pure inertial for X s since t0");
 when aiding resumes after such a stretch it warns again ("aiding resumed ... after X s pure inertial") with
 the predicted velocity sigma at the stretch's last un-aided epoch. :meth:`CoastingMonitor.summary` goes into
 ``info``. :func:`check_pure_inertial` runs the same monitor over a finished solution's arrays.
@@ -85,8 +85,8 @@ class CoastingMonitor:
     def update(self, t: float, aided: bool, cov_v_n=None, completed: bool = False) -> None:
         """One output epoch at t (s): whether a DVL update with a measured beam or velocity entered there (regressed
         beams alone do not count), the velocity covariance (3,3) m^2/s^2 after it (or None), and whether beams a
-        completer regressed entered there (a hybrid method's, at a ping with no measured beam: the warning then says
-        the velocity comes from them, not from the IMU alone)."""
+        completer regressed entered there, past the screening (a hybrid method's, at a ping with no measured beam: the
+        warning then says the velocity comes from them, not from the IMU alone)."""
         t = float(t)
         if aided:
             if self._warned:

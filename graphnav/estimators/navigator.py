@@ -776,7 +776,7 @@ class Navigator:
         out = []
         for kf in kfs:
             est = self.backend.process(kf)
-            self.coasting.update(est.t, self.backend.last_aided, est.cov_v_n, est.n_regressed > 0)
+            self.coasting.update(est.t, self.backend.last_aided, est.cov_v_n, self.backend.last_completed)
             self.sigma.update(est.t, est.v_n, est.cov_v_n)
             est.health, est.health_why = epoch_health(self.backend.monitor, self.coasting, self.sigma)
             out.append(est)

@@ -179,6 +179,8 @@ class _IncrementalGraph:
         # return of the beams, and the positions of the queued keyframe's among its factors
         self._completions: list[tuple[float, int]] = []
         self._pending_completions: list[int] = []
+        #: factors made from regressed beams entered with the keyframe added last (past the screening)
+        self.completions_entered = False
         # the fixed-lag smoother's (index, time s) of the keyframes since the first of them that took a regressed
         # beam's factor, while their factors wait to be taken out: it holds them (:meth:`FixedLagGraph._track_hold`)
         self._held: list[tuple[int, float]] = []
@@ -215,6 +217,7 @@ class _IncrementalGraph:
         if self.keep_keyframe_graphs:
             self.keyframe_graphs.append((link, local))
         self._pending_completions = [link.size() + i for i in local.completion_positions()]
+        self.completions_entered = bool(self._pending_completions)
         self._pending_factors.push_back(link)
         self._pending_factors.push_back(local.graph())
         self._pending_values.insert(X(k), pose)
