@@ -1797,14 +1797,33 @@ class StreamScreen:
         self.zero_ping = ({"dvl": ZeroPingTest(dvl, beam_speed), "dvl_velocity": ZeroPingTest(dvl, np.linalg.norm)}
                           if self.judge_zeros else {})
         self._newest = -math.inf      # newest stamp accepted on any stream (one clock)
+        #: the first stamp that jumped more than MAX_STAMP_GAP_S ahead: (stream, newest stamp before it, its stamp), s
+        self.clock_jump: tuple[str, float, float] | None = None
+        #: samples per stream refused for such a jump
+        self.jumped: dict[str, int] = {}
 
     def stamp_problem(self, stream: str, t: float) -> str | None:
         """Why a stamp of ``stream`` is refused: beyond the bounds, or a jump of more than
-        :data:`MAX_STAMP_GAP_S` ahead of the newest stamp of the streams (they share one clock)."""
+        :data:`MAX_STAMP_GAP_S` ahead of the newest stamp of the streams (they share one clock: the first such
+        jump is kept in :attr:`clock_jump`, the samples refused for one counted in :attr:`jumped`)."""
         why = stamp_problem(t, self._newest)
         if why is None and float(t) > self._newest:
             self._newest = float(t)
+        elif why is not None and math.isfinite(self._newest) and abs(float(t)) <= MAX_STAMP_S \
+                and float(t) - self._newest > MAX_STAMP_GAP_S:
+            self.clock_jump = self.clock_jump or (stream, self._newest, float(t))
+            self.jumped[stream] = self.jumped.get(stream, 0) + 1
         return why
+
+    def clock_jump_text(self, received: dict[str, int]) -> str:
+        """The clock jump of :attr:`clock_jump` in words, with the samples of each stream (``received``: counts
+        per stream) it refused."""
+        stream, before, after = self.clock_jump
+        refused = ", ".join(f"{n} of {received.get(s, n)} {s}" for s, n in self.jumped.items())
+        return (f"the clock jumped {after - before:.6g} s ahead at t = {before:.3f} s, "
+                f"first on the {stream} stream (its sample stamped {after:.6g} s): more than {MAX_STAMP_GAP_S:g} s, "
+                f"no stream pauses so long; {refused} samples refused after it (every stream shares the clock); "
+                "split the stream there or correct its stamps")
 
     def imu_problem(self, f_b, omega_b) -> str | None:
         imu = self.config.imu

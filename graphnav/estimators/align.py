@@ -320,6 +320,9 @@ class Aligner:
         self.n_dvl_refused = 0       # pings outside the vehicle's envelope or spiking
         spec = config.dvl
         self._dvl_spike = SpikeTest(spec.max_accel_mps2, spec.jump_tolerance_mps)
+        # IMU gaps (t0, t1) s met so far, and the longest stretch of data before the last of them (imu, dvl, depth)
+        self.imu_gaps: list[tuple[float, float]] = []
+        self._before_gap: tuple[list, list, list] | None = None
 
     # --- input ------------------------------------------------------------------------------------
     def add_imu(self, t: float, f_b, omega_b) -> None:
@@ -385,6 +388,41 @@ class Aligner:
         """Heading (yaw of C_b_n, rad, e.g. AHRS or magnetometer corrected for declination) with 1-sigma rad."""
         self._headings.append((float(t), float(yaw), float(sigma)))
 
+    def imu_gap(self, t0: float, t1: float) -> None:
+        """The IMU stream has a gap from ``t0`` to ``t1`` (s; a loss of samples, or the clock stepped): the gyros
+        cannot carry the attitude over it (a bridge of 5 s at 0.014 rad/s, straight through a roll the vehicle was
+        not making, tilted the rest 4 deg: 0.7 m/s^2 of gravity into the levelling), so the alignment starts again
+        after it. The data before it are kept while they are the longest stretch without a gap: when the data end
+        (:meth:`missing`, ``end_of_data``) the alignment is over the longest stretch (:attr:`t_first`)."""
+        self.imu_gaps.append((float(t0), float(t1)))
+        if not self._imu:
+            return
+        held = (self._imu, [d for d in self._dvl if d[0] <= t0], [d for d in self._depth if d[0] <= t0])
+        if self._before_gap is None or _span(held[0]) > _span(self._before_gap[0]):
+            self._before_gap = held
+        self._imu, self._dvl, self._depth = [], [d for d in self._dvl if d[0] > t0], \
+            [d for d in self._depth if d[0] > t0]
+
+    def _take_longest_stretch(self) -> None:
+        """At the end of the data: align over the stretch before a gap when it is longer than the one after."""
+        if self._before_gap is not None and _span(self._before_gap[0]) > _span(self._imu):
+            self._imu, self._dvl, self._depth = self._before_gap
+            self._before_gap = None
+
+    @property
+    def t_first(self) -> float | None:
+        """Stamp of the first IMU sample the alignment uses, s (after the last IMU gap, or before one at the end of
+        the data, :meth:`imu_gap`); None before any."""
+        return self._imu[0][0] if self._imu else None
+
+    def _gap_note(self) -> str:
+        """Why the IMU time held is short when gaps split it: names them (empty when none)."""
+        if not self.imu_gaps:
+            return ""
+        where = ", ".join(f"{t1 - t0:.3g} s after t = {t0:.3f} s" for t0, t1 in self.imu_gaps[:3])
+        return (f" (the IMU gap{'s' * (len(self.imu_gaps) > 1)} {where} split{'s' * (len(self.imu_gaps) == 1)} "
+                "the data: the attitude is not carried over a gap, and the longest stretch without one counts)")
+
     def _trim(self) -> None:
         t_last = self._imu[-1][0]
         if t_last - self._imu[0][0] > self.options.max_window_s + 1.0:
@@ -414,12 +452,14 @@ class Aligner:
         """What is still missing before :meth:`result` can work (empty when :attr:`ready`); ``end_of_data``:
         no more data will come, so a gyrocompassing window of ``min_duration_s`` is enough."""
         o, out = self.options, []
+        if end_of_data:
+            self._take_longest_stretch()
         need = self._needed_s(end_of_data)
         span = self._span_s()
         if not self._imu:
             out.append("no IMU samples (add_imu)")
         elif span < need:
-            out.append(f"IMU data cover {span:.1f} s of the {need:g} s needed")
+            out.append(f"IMU data cover {span:.1f} s of the {need:g} s needed" + self._gap_note())
         if len(self._dvl) < o.min_dvl_pings:
             out.append(f"{len(self._dvl)} DVL pings with >= 3 valid beams (bottom lock), {o.min_dvl_pings} needed "
                        "(add_dvl): a moving vehicle is levelled with the DVL velocity change")
@@ -444,7 +484,7 @@ class Aligner:
         return min(o.min_duration_s, o.duration_s) if end_of_data else o.duration_s
 
     def _span_s(self) -> float:
-        return self._imu[-1][0] - self._imu[0][0] if self._imu else 0.0
+        return _span(self._imu)
 
     def progress(self) -> dict:
         """Where the alignment stands (a live status line): ``aligned_s`` IMU time gathered of ``needed_s``
@@ -822,6 +862,11 @@ class Aligner:
             info["depth_source"] = "none (dead reckoning from depth 0 or initial_position_n)"
         info["dead_reckoning_distance_m"] = dist
         return p_n, cov, origin, info
+
+
+def _span(imu: list) -> float:
+    """Time covered by IMU samples ``[(t, f_b, omega_b), ...]`` in time order, s."""
+    return imu[-1][0] - imu[0][0] if imu else 0.0
 
 
 def _rotating_integral(omega: np.ndarray, x: np.ndarray, tau: np.ndarray) -> np.ndarray:

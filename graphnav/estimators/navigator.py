@@ -585,6 +585,9 @@ class Navigator:
         configuration describes (units, column map, ranges), and a trajectory from the rest would mislead."""
         for stream, n in self.received.items():
             bad = self.samples_refused.get(stream, 0)
+            if n >= 10 and bad > MAX_REFUSED_FRACTION * n and self._screen.jumped.get(stream, 0) > bad / 2:
+                jumped_on = self._screen.clock_jump[0]
+                raise DataError(f"navigator: {self._screen.clock_jump_text(self.received)}", jumped_on, field="t")
             if n >= 10 and bad > MAX_REFUSED_FRACTION * n:
                 reasons = ", ".join(f"{k}: {c}" for k, c in sorted(self.refused.get(stream, {}).items(),
                                                                     key=lambda kv: -kv[1]))
@@ -757,7 +760,11 @@ class Navigator:
     def _dispatch(self, stream: str, t: float, payload: tuple) -> list[EpochEstimate]:
         if self.backend is None:
             if stream == "imu":     # before the start the keyframer only keeps the sample that covers t0
+                gaps = self.keyframer.stats.imu_gaps
+                n_gaps = len(gaps)
                 self.keyframer.add_imu(t, *payload)
+                if len(gaps) > n_gaps:     # the keyframer's rule: the gap the estimator will bridge
+                    self.aligner.imu_gap(gaps[-1].t_start, gaps[-1].t_end)
                 if not (any(payload[0]) or any(payload[1])):
                     return []       # an all-zero row (dropped and counted by the keyframer) is no alignment data
             if self.options.align_catch_up:
@@ -865,6 +872,13 @@ class Navigator:
         through the buffer (``align_catch_up``), else where the alignment ends."""
         a, events = self.aligner, self._align_events
         t_first = next((e[1] for e in events if e[0] == "imu"), None)
+        if t_first is not None and end_of_data:
+            a.missing(end_of_data=True)     # the longest stretch without an IMU gap
+        if t_first is not None and a.t_first is not None and a.t_first > t_first:
+            warnings.warn(f"navigator: no estimates from t = {t_first:.3f} to {a.t_first:.3f} s: the alignment "
+                          f"starts after the IMU gap there, over which the gyros cannot carry its attitude back",
+                          RuntimeWarning, stacklevel=4)
+            t_first = a.t_first
         al = None
         if (self.options.align_catch_up or end_of_data) and t_first is not None:
             from graphnav.estimators.align import AlignmentError
