@@ -81,10 +81,11 @@ def test_a_gap_splitting_the_alignment_short_says_so(records):
 
 def test_a_clock_jump_of_days_is_refused_naming_the_jump_and_its_stream(records):
     """Every stream stepped 2 days: refused naming the jump, where it happened and the stream that showed it first
-    (it was refused as '751 of 1501 depth samples refused', the depth stream's fault)."""
+    (a jump of 30 % of the stream was refused sample by sample, and one of half as "751 of 1501 depth samples
+    refused", as if the depth sensor were at fault); it stops once the IMU has been 1 s past it, not at the end."""
     config, recs = records
     with pytest.raises(DataError) as err:
         _run(config, _stepped(recs, 2 * 86400.0))
     text = str(err.value)
     assert "the clock jumped 172800 s ahead at t = 139.990 s, first on the depth stream" in text, text
-    assert "6001 of 20001 imu" in text and "split the stream there" in text
+    assert "100 of 14100 imu samples refused after it" in text and "split the stream there" in text

@@ -70,6 +70,10 @@ MAX_STAMP_S = 1e10
 #: for a day and resumes; a larger jump is a clock reset or a corrupted stamp, and looping over the time in
 #: between (keyframes every second through a gap) would never end.
 MAX_STAMP_GAP_S = 86400.0
+#: A live stream whose IMU samples jumped that far ahead for this long, s of IMU samples at the configured rate,
+#: had its clock stepped (one corrupted stamp is one sample): every sample after it would be refused, and the stream
+#: stops there naming the jump.
+CLOCK_JUMP_CONFIRM_S = 1.0
 #: A stream with more than this fraction of its samples refused ends the run with a DataError.
 MAX_REFUSED_FRACTION = 0.5
 #: Neighbours on each side (loaders) or in the past (stream) whose median a sample is compared with.
@@ -1814,6 +1818,10 @@ class StreamScreen:
             self.clock_jump = self.clock_jump or (stream, self._newest, float(t))
             self.jumped[stream] = self.jumped.get(stream, 0) + 1
         return why
+
+    def clock_stepped(self) -> bool:
+        """Whether the IMU samples refused for a jump cover :data:`CLOCK_JUMP_CONFIRM_S` at the configured rate."""
+        return self.jumped.get("imu", 0) >= CLOCK_JUMP_CONFIRM_S * self.config.imu_rate_hz
 
     def clock_jump_text(self, received: dict[str, int]) -> str:
         """The clock jump of :attr:`clock_jump` in words, with the samples of each stream (``received``: counts

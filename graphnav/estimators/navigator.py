@@ -248,6 +248,7 @@ class Navigator:
         else:       # t is a finite float here: straight to the stamp screening of _stamp_ok
             why = self._screen.stamp_problem("imu", t)
             if why is not None:
+                self._stop_at_clock_step()
                 return self._refuse("imu", t, "t", why)
         acc, gyro = self._imu_full_scale
         if (abs(f[0]) > acc or abs(f[1]) > acc or abs(f[2]) > acc or abs(w[0]) > gyro or abs(w[1]) > gyro
@@ -580,14 +581,21 @@ class Navigator:
         self.notes.setdefault(stream, []).append(text)
         warnings.warn(f"navigator: {stream}: {text}", RuntimeWarning, stacklevel=3)
 
+    def _stop_at_clock_step(self) -> None:
+        """DataError naming the clock jump once the IMU samples refused for it show the clock stepped
+        (:meth:`~graphnav.core.screening.StreamScreen.clock_stepped`): every sample after it would be refused."""
+        if self._screen.clock_stepped():
+            raise DataError(f"navigator: {self._screen.clock_jump_text(self.received)}", self._screen.clock_jump[0],
+                            field="t")
+
     def _check_refused(self) -> None:
         """DataError when more than MAX_REFUSED_FRACTION of a stream was refused: the data are not what the
         configuration describes (units, column map, ranges), and a trajectory from the rest would mislead."""
         for stream, n in self.received.items():
             bad = self.samples_refused.get(stream, 0)
             if n >= 10 and bad > MAX_REFUSED_FRACTION * n and self._screen.jumped.get(stream, 0) > bad / 2:
-                jumped_on = self._screen.clock_jump[0]
-                raise DataError(f"navigator: {self._screen.clock_jump_text(self.received)}", jumped_on, field="t")
+                raise DataError(f"navigator: {self._screen.clock_jump_text(self.received)}",
+                                self._screen.clock_jump[0], field="t")
             if n >= 10 and bad > MAX_REFUSED_FRACTION * n:
                 reasons = ", ".join(f"{k}: {c}" for k, c in sorted(self.refused.get(stream, {}).items(),
                                                                     key=lambda kv: -kv[1]))
@@ -611,6 +619,7 @@ class Navigator:
             return False
         why = self._screen.stamp_problem(stream, t)
         if why is not None:
+            self._stop_at_clock_step()
             self._refuse(stream, t, "t", why)
             return False
         return True
