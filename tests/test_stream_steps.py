@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from graphnav.core.errors import DataError
+from graphnav.core.screening import ImuStallTest
 from graphnav.estimators.navigator import Navigator
 from graphnav.estimators.replay import mission_records
 from graphnav.io.streamio import feed
@@ -89,3 +90,39 @@ def test_a_clock_jump_of_days_is_refused_naming_the_jump_and_its_stream(records)
     text = str(err.value)
     assert "the clock jumped 172800 s ahead at t = 139.990 s, first on the depth stream" in text, text
     assert "100 of 14100 imu samples refused after it" in text and "split the stream there" in text
+
+
+def _stalled(recs, start_s: float, length_s: float):
+    """The IMU repeating the reading at ``start_s`` for ``length_s`` (a driver re-sending its last sample)."""
+    imu = [r for r in recs if r["type"] == "imu"]
+    read = next(r for r in imu if r["t"] >= start_s)
+    return [dict(r, f_b=read["f_b"], omega_b=read["omega_b"])
+            if r["type"] == "imu" and start_s < r["t"] < start_s + length_s else r for r in recs]
+
+
+def test_a_stalled_imu_in_the_live_stream_is_refused_and_bridged_as_the_loaders_do(records):
+    """The IMU repeating one reading for 2 s: the loaders refuse the repeats (screening.imu_stalled) and the run
+    bridges them; the live stream integrated them (42.7 m off the clean run, DIVERGED at the end). Now refused in
+    the loaders' words, counted, and bridged: metres (measured 6.2 m)."""
+    config, recs = records
+    _, clean, _ = _run(config, recs)
+    nav, out, said = _run(config, _stalled(recs, 160.0, 2.0))
+    assert any("199 imu sample(s) refused (199 stalled (repeats the row before it in every value for 0.5 s or more))"
+               " from t = 160.010 to 161.990 s" in w for w in said), said
+    assert any("gap of 2.000 s after t = 160.000 s bridged" in w for w in said)
+    assert nav.refused["imu"] == {"stalled (repeats the row before it in every value for 0.5 s or more)": 199}
+    assert _largest_distance(out, clean) < 10.0 and out[-1].health == "ok"
+
+
+def test_a_short_run_of_repeats_goes_on_in_stamp_order(records, monkeypatch):
+    """0.3 s of one reading is no stall (IMU_STALL_MIN_S 0.5 s): held while it might be one, then let go before the
+    sample that ended it and the pings that waited, in stamp order: nothing refused, the estimates those of the
+    same stream never held."""
+    config, recs = records
+    damaged = _stalled(recs, 160.0, 0.3)
+    nav, out, said = _run(config, damaged)
+    assert "imu" not in nav.refused and not any("stalled" in w for w in said)
+    monkeypatch.setattr(ImuStallTest, "repeats", lambda self, values: False)
+    _, never_held, _ = _run(config, damaged)
+    assert [e.t for e in out] == [e.t for e in never_held] and len(out) == 201
+    np.testing.assert_array_equal([e.p_n for e in out], [e.p_n for e in never_held])

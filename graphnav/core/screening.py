@@ -565,9 +565,46 @@ def imu_stalled(t: np.ndarray, f_b: np.ndarray, omega_b: np.ndarray) -> np.ndarr
             continue
         around = finite & (((t >= t[a - 1] - IMU_STALL_CONTEXT_S) & (t < t[a - 1]))
                            | ((t > t[b - 1]) & (t <= t[b - 1] + IMU_STALL_CONTEXT_S)))
-        if around.any() and repeats[around].mean() < IMU_STALL_CONTEXT_REPEAT_SHARE:
-            out[a:b] = True
+        out[a:b] = stalled_run(t[b - 1] - t[a - 1], x[a - 1], repeats[around].mean() if around.any() else None)
     return out
+
+
+def stalled_run(duration_s: float, reading: np.ndarray, repeat_share_around: float | None) -> bool:
+    """Whether a run of IMU rows repeating one ``reading`` (f_b m/s^2 then omega_b rad/s, (6,)) for ``duration_s``
+    (s, from the row read to its last repeat) is a stalled sensor (:func:`imu_stalled`): long enough
+    (:data:`IMU_STALL_MIN_S`), not a reading of a vehicle at rest, and the finite rows around it repeat under
+    :data:`IMU_STALL_CONTEXT_REPEAT_SHARE` of the time (``repeat_share_around``; None: no such row to tell)."""
+    return bool(duration_s >= IMU_STALL_MIN_S and not _reads_rest(np.asarray(reading, float))
+                and repeat_share_around is not None and repeat_share_around < IMU_STALL_CONTEXT_REPEAT_SHARE)
+
+
+class ImuStallTest:
+    """The stalled-sensor rule of :func:`imu_stalled` on a live IMU, in stamp order: :meth:`repeats` says whether a
+    sample repeats the one before it in every value (the caller holds such samples), :meth:`stalled` whether the run
+    it holds is a stall, judged by the rows of the :data:`IMU_STALL_CONTEXT_S` before the reading it repeats (a live
+    stream cannot wait for the second after it), and :meth:`passed` takes each sample that went on."""
+
+    def __init__(self):
+        self._recent: deque[tuple[float, bool]] = deque()     # (stamp s, repeated the one before) of those passed
+        self._last: tuple[float, tuple] | None = None          # the last sample passed: (stamp s, its six values)
+
+    def repeats(self, values: tuple) -> bool:
+        """Whether the six values (f_b then omega_b) repeat the last sample passed."""
+        return self._last is not None and values == self._last[1]
+
+    def stalled(self, t_last: float) -> bool:
+        """Whether the held run, repeating the last sample passed up to the stamp ``t_last`` (s), is a stall."""
+        t_read, reading = self._last
+        around = [r for t, r in self._recent if t >= t_read - IMU_STALL_CONTEXT_S and t < t_read]
+        return stalled_run(t_last - t_read, np.asarray(reading, float), sum(around) / len(around) if around else None)
+
+    def passed(self, t: float, values: tuple) -> None:
+        """A sample (stamp ``t`` s, six values) went on to the estimator."""
+        recent = self._recent
+        recent.append((t, self.repeats(values)))
+        while recent[0][0] < t - IMU_STALL_CONTEXT_S - 1.0:
+            recent.popleft()
+        self._last = (t, values)
 
 
 def _reads_rest(row: np.ndarray) -> bool:

@@ -486,13 +486,15 @@ class Aligner:
     def _span_s(self) -> float:
         return _span(self._imu)
 
-    def progress(self) -> dict:
+    def progress(self, end_of_data: bool = False) -> dict:
         """Where the alignment stands (a live status line): ``aligned_s`` IMU time gathered of ``needed_s``
-        (s), ``dvl_pings`` with bottom lock of ``dvl_pings_needed``, ``heading`` (``"heading record"``,
-        ``"given"`` or ``"gyrocompassing"``), and ``waiting_for``: ``"imu time"``, ``"dvl bottom lock"``,
-        ``"heading source"`` (gyrocompassing impossible with this gyro or configuration)."""
+        (s; ``end_of_data``: what an alignment at the end of the data needs, :meth:`missing`), ``dvl_pings`` with
+        bottom lock of ``dvl_pings_needed``, ``heading`` (``"heading record"``, ``"given"`` or
+        ``"gyrocompassing"``), ``waiting_for``: ``"imu time"``, ``"dvl bottom lock"``, ``"heading source"``
+        (gyrocompassing impossible with this gyro or configuration), and ``imu_gaps``: why the IMU time gathered
+        restarted (empty, or the IMU gaps in words, :meth:`imu_gap`)."""
         waiting = []
-        span, need = self._span_s(), self._needed_s()
+        span, need = self._span_s(), self._needed_s(end_of_data)
         if span < need:
             waiting.append("imu time")
         if len(self._dvl) < self.options.min_dvl_pings:
@@ -503,7 +505,7 @@ class Aligner:
             waiting.append("heading source")
         return {"aligned_s": float(span), "needed_s": float(need), "dvl_pings": len(self._dvl),
                 "dvl_pings_needed": int(self.options.min_dvl_pings), "dvl_pings_ignored": int(self.n_dvl_ignored),
-                "heading": heading, "waiting_for": waiting}
+                "heading": heading, "waiting_for": waiting, "imu_gaps": self._gap_note().strip(" ()")}
 
     @property
     def ready(self) -> bool:
