@@ -104,6 +104,13 @@ FIXED_PRIOR = 1e12
 FIT_ITERATIONS = 3
 
 
+#: IMU gaps up to this long, s, are held over by the alignment (:meth:`Aligner.imu_gap`); longer ones start it again.
+#: Bridged, a loss of every sensor moved the gyrocompassed heading of a 150 s simulated stream 0.09 deg for 0.06 s
+#: (samples refused as out of order), 0.38 deg for 0.5 s, 3.9 deg for 1 s, 23 deg for 2 s (its sigma 0.8 deg); a
+#: step of the clock, which the stamps cannot tell from a loss, moves it at any length (0.03 s: 5 deg, 0.5 s: 54 deg).
+GAP_CARRIED_S = 0.5
+
+
 class AlignmentError(ConfigError):
     """The aligner cannot produce an initial state; the message says what is missing."""
 
@@ -393,7 +400,10 @@ class Aligner:
         cannot carry the attitude over it (a bridge of 5 s at 0.014 rad/s, straight through a roll the vehicle was
         not making, tilted the rest 4 deg: 0.7 m/s^2 of gravity into the levelling), so the alignment starts again
         after it. The data before it are kept while they are the longest stretch without a gap: when the data end
-        (:meth:`missing`, ``end_of_data``) the alignment is over the longest stretch (:attr:`t_first`)."""
+        (:meth:`missing`, ``end_of_data``) the alignment is over the longest stretch (:attr:`t_first`). A gap of at
+        most :data:`GAP_CARRIED_S` is held over as any other step."""
+        if t1 - t0 <= GAP_CARRIED_S:
+            return
         self.imu_gaps.append((float(t0), float(t1)))
         if not self._imu:
             return
