@@ -282,10 +282,10 @@ def run(args) -> int:
     if n_total == 0:
         waiting = ""
         if nav.aligner is not None:
-            a = nav.aligner.progress()
+            a = nav.aligner.progress(end_of_data=True)
             waiting = (f": still aligning when the data ended ({a['aligned_s']:.0f} of {a['needed_s']:.0f} s of IMU "
                        f"data, {a['dvl_pings']} of {a['dvl_pings_needed']} DVL pings; waiting for: "
-                       f"{', '.join(a['waiting_for']) or 'more data'})")
+                       f"{', '.join(a['waiting_for']) or 'more data'}{'; ' + a['imu_gaps'] if a['imu_gaps'] else ''})")
         print(f"graphnav online: error: no estimate was made{waiting}; a longer log, a heading source "
               "(--initial-heading, a heading record) or an initial state (--init gt) starts it sooner",
               file=sys.stderr)

@@ -70,6 +70,10 @@ MAX_STAMP_S = 1e10
 #: for a day and resumes; a larger jump is a clock reset or a corrupted stamp, and looping over the time in
 #: between (keyframes every second through a gap) would never end.
 MAX_STAMP_GAP_S = 86400.0
+#: A live stream whose IMU samples jumped that far ahead for this long, s of IMU samples at the configured rate,
+#: had its clock stepped (one corrupted stamp is one sample): every sample after it would be refused, and the stream
+#: stops there naming the jump.
+CLOCK_JUMP_CONFIRM_S = 1.0
 #: A stream with more than this fraction of its samples refused ends the run with a DataError.
 MAX_REFUSED_FRACTION = 0.5
 #: Neighbours on each side (loaders) or in the past (stream) whose median a sample is compared with.
@@ -561,9 +565,46 @@ def imu_stalled(t: np.ndarray, f_b: np.ndarray, omega_b: np.ndarray) -> np.ndarr
             continue
         around = finite & (((t >= t[a - 1] - IMU_STALL_CONTEXT_S) & (t < t[a - 1]))
                            | ((t > t[b - 1]) & (t <= t[b - 1] + IMU_STALL_CONTEXT_S)))
-        if around.any() and repeats[around].mean() < IMU_STALL_CONTEXT_REPEAT_SHARE:
-            out[a:b] = True
+        out[a:b] = stalled_run(t[b - 1] - t[a - 1], x[a - 1], repeats[around].mean() if around.any() else None)
     return out
+
+
+def stalled_run(duration_s: float, reading: np.ndarray, repeat_share_around: float | None) -> bool:
+    """Whether a run of IMU rows repeating one ``reading`` (f_b m/s^2 then omega_b rad/s, (6,)) for ``duration_s``
+    (s, from the row read to its last repeat) is a stalled sensor (:func:`imu_stalled`): long enough
+    (:data:`IMU_STALL_MIN_S`), not a reading of a vehicle at rest, and the finite rows around it repeat under
+    :data:`IMU_STALL_CONTEXT_REPEAT_SHARE` of the time (``repeat_share_around``; None: no such row to tell)."""
+    return bool(duration_s >= IMU_STALL_MIN_S and not _reads_rest(np.asarray(reading, float))
+                and repeat_share_around is not None and repeat_share_around < IMU_STALL_CONTEXT_REPEAT_SHARE)
+
+
+class ImuStallTest:
+    """The stalled-sensor rule of :func:`imu_stalled` on a live IMU, in stamp order: :meth:`repeats` says whether a
+    sample repeats the one before it in every value (the caller holds such samples), :meth:`stalled` whether the run
+    it holds is a stall, judged by the rows of the :data:`IMU_STALL_CONTEXT_S` before the reading it repeats (a live
+    stream cannot wait for the second after it), and :meth:`passed` takes each sample that went on."""
+
+    def __init__(self):
+        self._recent: deque[tuple[float, bool]] = deque()     # (stamp s, repeated the one before) of those passed
+        self._last: tuple[float, tuple] | None = None          # the last sample passed: (stamp s, its six values)
+
+    def repeats(self, values: tuple) -> bool:
+        """Whether the six values (f_b then omega_b) repeat the last sample passed."""
+        return self._last is not None and values == self._last[1]
+
+    def stalled(self, t_last: float) -> bool:
+        """Whether the held run, repeating the last sample passed up to the stamp ``t_last`` (s), is a stall."""
+        t_read, reading = self._last
+        around = [r for t, r in self._recent if t >= t_read - IMU_STALL_CONTEXT_S and t < t_read]
+        return stalled_run(t_last - t_read, np.asarray(reading, float), sum(around) / len(around) if around else None)
+
+    def passed(self, t: float, values: tuple) -> None:
+        """A sample (stamp ``t`` s, six values) went on to the estimator."""
+        recent = self._recent
+        recent.append((t, self.repeats(values)))
+        while recent[0][0] < t - IMU_STALL_CONTEXT_S - 1.0:
+            recent.popleft()
+        self._last = (t, values)
 
 
 def _reads_rest(row: np.ndarray) -> bool:
@@ -1797,14 +1838,37 @@ class StreamScreen:
         self.zero_ping = ({"dvl": ZeroPingTest(dvl, beam_speed), "dvl_velocity": ZeroPingTest(dvl, np.linalg.norm)}
                           if self.judge_zeros else {})
         self._newest = -math.inf      # newest stamp accepted on any stream (one clock)
+        #: the first stamp that jumped more than MAX_STAMP_GAP_S ahead: (stream, newest stamp before it, its stamp), s
+        self.clock_jump: tuple[str, float, float] | None = None
+        #: samples per stream refused for such a jump
+        self.jumped: dict[str, int] = {}
 
     def stamp_problem(self, stream: str, t: float) -> str | None:
         """Why a stamp of ``stream`` is refused: beyond the bounds, or a jump of more than
-        :data:`MAX_STAMP_GAP_S` ahead of the newest stamp of the streams (they share one clock)."""
+        :data:`MAX_STAMP_GAP_S` ahead of the newest stamp of the streams (they share one clock: the first such
+        jump is kept in :attr:`clock_jump`, the samples refused for one counted in :attr:`jumped`)."""
         why = stamp_problem(t, self._newest)
         if why is None and float(t) > self._newest:
             self._newest = float(t)
+        elif why is not None and math.isfinite(self._newest) and abs(float(t)) <= MAX_STAMP_S \
+                and float(t) - self._newest > MAX_STAMP_GAP_S:
+            self.clock_jump = self.clock_jump or (stream, self._newest, float(t))
+            self.jumped[stream] = self.jumped.get(stream, 0) + 1
         return why
+
+    def clock_stepped(self) -> bool:
+        """Whether the IMU samples refused for a jump cover :data:`CLOCK_JUMP_CONFIRM_S` at the configured rate."""
+        return self.jumped.get("imu", 0) >= CLOCK_JUMP_CONFIRM_S * self.config.imu_rate_hz
+
+    def clock_jump_text(self, received: dict[str, int]) -> str:
+        """The clock jump of :attr:`clock_jump` in words, with the samples of each stream (``received``: counts
+        per stream) it refused."""
+        stream, before, after = self.clock_jump
+        refused = ", ".join(f"{n} of {received.get(s, n)} {s}" for s, n in self.jumped.items())
+        return (f"the clock jumped {after - before:.6g} s ahead at t = {before:.3f} s, "
+                f"first on the {stream} stream (its sample stamped {after:.6g} s): more than {MAX_STAMP_GAP_S:g} s, "
+                f"no stream pauses so long; {refused} samples refused after it (every stream shares the clock); "
+                "split the stream there or correct its stamps")
 
     def imu_problem(self, f_b, omega_b) -> str | None:
         imu = self.config.imu

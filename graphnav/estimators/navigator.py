@@ -67,8 +67,8 @@ from graphnav.core.dvl import ping_speed
 from graphnav.core.earth import EarthModel
 from graphnav.core.errors import ConfigError, DataError
 from graphnav.core.mission import MAX_DVL_SPEED_MPS
-from graphnav.core.screening import (EXACT_COPY, MAX_REFUSED_FRACTION, NO_BOTTOM_LOCK, NUDGED_COPY, NudgedCopies,
-                                     RecentRepeats, StreamScreen)
+from graphnav.core.screening import (EXACT_COPY, IMU_STALLED, MAX_REFUSED_FRACTION, NO_BOTTOM_LOCK, NUDGED_COPY,
+                                     ImuStallTest, NudgedCopies, RecentRepeats, StreamScreen)
 from graphnav.estimators.align import AlignOptions
 from graphnav.estimators.backends import BACKENDS, make_backend
 from graphnav.estimators.coasting import CoastingMonitor, SigmaMonitor
@@ -197,6 +197,12 @@ class Navigator:
         self._last_imu_released = -math.inf
         self._last_imu_in: tuple | None = None      # the latest IMU sample received (t, f, w), for a copy of it
         self._imu_repeats = RecentRepeats()         # how often its readings repeat, within and across stamps
+        # a stalled IMU (the loaders' rule, screening.imu_stalled): samples repeating the one before them are held
+        # (nothing later leaves meanwhile) until the run ends or is a stall, whose samples are refused
+        self._stall = ImuStallTest()
+        self._stall_held: list[tuple[float, tuple, tuple]] = []
+        self._stall_refused: list[float] = []       # stamps of the stalled run being refused, s
+        self._stall_cleared = -math.inf             # held samples let go (no stall) up to this stamp, s
         self._nudged = {k: NudgedCopies() for k in STREAM_ORDER}     # samples sent again a moment later
         self._latest: EpochEstimate | None = None
         self._prop: tuple | None = None             # cached propagation for state_at
@@ -248,6 +254,7 @@ class Navigator:
         else:       # t is a finite float here: straight to the stamp screening of _stamp_ok
             why = self._screen.stamp_problem("imu", t)
             if why is not None:
+                self._stop_at_clock_step()
                 return self._refuse("imu", t, "t", why)
         acc, gyro = self._imu_full_scale
         if (abs(f[0]) > acc or abs(f[1]) > acc or abs(f[2]) > acc or abs(w[0]) > gyro or abs(w[1]) > gyro
@@ -413,6 +420,7 @@ class Navigator:
         self._check_refused()
         out = self._queue_packet(self._packets.flush(self._released))
         out += self._release(math.inf)
+        self._warn_stall()
         if self.backend is None and self.aligner is not None:
             out += self._align_at_end()
         if self.backend is not None:
@@ -580,11 +588,21 @@ class Navigator:
         self.notes.setdefault(stream, []).append(text)
         warnings.warn(f"navigator: {stream}: {text}", RuntimeWarning, stacklevel=3)
 
+    def _stop_at_clock_step(self) -> None:
+        """DataError naming the clock jump once the IMU samples refused for it show the clock stepped
+        (:meth:`~graphnav.core.screening.StreamScreen.clock_stepped`): every sample after it would be refused."""
+        if self._screen.clock_stepped():
+            raise DataError(f"navigator: {self._screen.clock_jump_text(self.received)}", self._screen.clock_jump[0],
+                            field="t")
+
     def _check_refused(self) -> None:
         """DataError when more than MAX_REFUSED_FRACTION of a stream was refused: the data are not what the
         configuration describes (units, column map, ranges), and a trajectory from the rest would mislead."""
         for stream, n in self.received.items():
             bad = self.samples_refused.get(stream, 0)
+            if n >= 10 and bad > MAX_REFUSED_FRACTION * n and self._screen.jumped.get(stream, 0) > bad / 2:
+                raise DataError(f"navigator: {self._screen.clock_jump_text(self.received)}",
+                                self._screen.clock_jump[0], field="t")
             if n >= 10 and bad > MAX_REFUSED_FRACTION * n:
                 reasons = ", ".join(f"{k}: {c}" for k, c in sorted(self.refused.get(stream, {}).items(),
                                                                     key=lambda kv: -kv[1]))
@@ -608,6 +626,7 @@ class Navigator:
             return False
         why = self._screen.stamp_problem(stream, t)
         if why is not None:
+            self._stop_at_clock_step()
             self._refuse(stream, t, "t", why)
             return False
         return True
@@ -716,26 +735,76 @@ class Navigator:
         out += self._queue_packet(self._packets.overdue(self._newest, self._released))
         if until < math.inf:        # the end of the data holds nothing back
             until = min(until, self._packets.release_limit(self._newest))
-        heap, q = self._heap, self._imu_q
+        heap, q, held = self._heap, self._imu_q, self._stall_held
         while True:
-            if q and q[0][0] <= until and (not heap or q[0][0] < heap[0][0]):
+            if q and q[0][0] <= until and (held or not heap or q[0][0] < heap[0][0]):
                 t, f, w = q.popleft()
                 self._last_imu_released = self._released = t
+                if self._stalled(t, f, w):
+                    continue
                 if self._imu_spike(t, f, w):
                     continue
+                self._stall.passed(t, f + w)
                 if self.backend is not None:
                     kfs = self.keyframer.add_imu(t, f, w)
                     if kfs:
                         out += self._process(kfs)
                 else:
                     out += self._dispatch("imu", t, (f, w))
-            elif heap and heap[0][0] <= until:
+            elif held and until == math.inf:        # the data ended in a run that was no stall
+                self._let_held_go()
+            elif heap and heap[0][0] <= until and not held:
                 t, _, _, stream, payload = heapq.heappop(heap)
                 self._stamps[stream].discard(t)
                 self._last_released[stream] = self._released = t
                 out += self._dispatch(stream, t, payload)
             else:
                 return out
+
+    def _stalled(self, t: float, f: tuple, w: tuple) -> bool:
+        """Whether the IMU sample leaving the reorder buffer (stamp ``t`` s) is held or refused as part of a run
+        repeating the sample before it (:class:`~graphnav.core.screening.ImuStallTest`, the loaders' rule): held
+        while the run is shorter than a stall, refused once it is one; a sample ending a held run that was no stall
+        comes back after it, to go on in stamp order."""
+        if t <= self._stall_cleared:
+            return False
+        held, refused = self._stall_held, self._stall_refused
+        if self._stall.repeats(f + w):
+            self._prop = None
+            if refused:
+                refused.append(t)
+            else:
+                held.append((t, f, w))
+                if self._stall.stalled(t):
+                    refused += [x[0] for x in held]
+                    held.clear()
+            return True
+        self._warn_stall()
+        if not held:
+            return False
+        self._imu_q.appendleft((t, f, w))
+        self._let_held_go()
+        return True
+
+    def _let_held_go(self) -> None:
+        """The held run was no stall: back to the front of the reorder buffer, to go on unjudged."""
+        held = self._stall_held
+        self._imu_q.extendleft(reversed(held))
+        self._stall_cleared = held[-1][0]
+        held.clear()
+
+    def _warn_stall(self) -> None:
+        """Count and warn about the stalled run refused (the estimator then bridges it as a gap, as the loaders')."""
+        refused = self._stall_refused
+        if not refused:
+            return
+        n = len(refused)
+        counts = self.refused.setdefault("imu", {})
+        counts[IMU_STALLED] = counts.get(IMU_STALLED, 0) + n
+        self.samples_refused["imu"] = self.samples_refused.get("imu", 0) + n
+        warnings.warn(f"navigator: {n} imu sample(s) refused ({n} {IMU_STALLED}) from t = {refused[0]:.3f} to "
+                      f"{refused[-1]:.3f} s; they are not used", RuntimeWarning, stacklevel=4)
+        refused.clear()
 
     def _imu_spike(self, t: float, f: tuple, w: tuple) -> bool:
         """True when the spike test refuses the IMU sample leaving the reorder buffer (refused and counted). It
@@ -757,7 +826,11 @@ class Navigator:
     def _dispatch(self, stream: str, t: float, payload: tuple) -> list[EpochEstimate]:
         if self.backend is None:
             if stream == "imu":     # before the start the keyframer only keeps the sample that covers t0
+                gaps = self.keyframer.stats.imu_gaps
+                n_gaps = len(gaps)
                 self.keyframer.add_imu(t, *payload)
+                if len(gaps) > n_gaps:     # the keyframer's rule: the gap the estimator will bridge
+                    self.aligner.imu_gap(gaps[-1].t_start, gaps[-1].t_end)
                 if not (any(payload[0]) or any(payload[1])):
                     return []       # an all-zero row (dropped and counted by the keyframer) is no alignment data
             if self.options.align_catch_up:
@@ -865,6 +938,13 @@ class Navigator:
         through the buffer (``align_catch_up``), else where the alignment ends."""
         a, events = self.aligner, self._align_events
         t_first = next((e[1] for e in events if e[0] == "imu"), None)
+        if t_first is not None and end_of_data:
+            a.missing(end_of_data=True)     # the longest stretch without an IMU gap
+        if t_first is not None and a.t_first is not None and a.t_first > t_first:
+            warnings.warn(f"navigator: no estimates from t = {t_first:.3f} to {a.t_first:.3f} s: the alignment "
+                          f"starts after the IMU gap there, over which the gyros cannot carry its attitude back",
+                          RuntimeWarning, stacklevel=4)
+            t_first = a.t_first
         al = None
         if (self.options.align_catch_up or end_of_data) and t_first is not None:
             from graphnav.estimators.align import AlignmentError
@@ -939,12 +1019,9 @@ class Navigator:
         return out
 
     def _align_missing(self) -> str:
-        """What the aligner still lacks (its error message)."""
-        try:
-            self.aligner.result()
-        except ConfigError as exc:
-            return str(exc)
-        return "alignment ready"
+        """What the aligner still lacks at the end of the data (its error message)."""
+        missing = self.aligner.missing(end_of_data=True)
+        return "cannot align from the sensors: " + "; ".join(missing) if missing else "alignment ready"
 
 
 def initial_from_alignment(al, before_data: AlignOptions | None = None, hand_over_fit: bool = True,

@@ -262,7 +262,7 @@ def status_record(nav, t: float, wall_s: float) -> dict:
     """A ``status`` record of a Navigator: ``t`` (s, stamp of the last record read), ``wall_s`` (s since the
     stream was opened), ``state`` (``aligning`` or ``navigating``) and, while aligning, ``alignment``: the
     aligner's :meth:`~graphnav.estimators.align.Aligner.progress` (``aligned_s`` of ``needed_s`` s of IMU data,
-    ``dvl_pings`` with bottom lock of ``dvl_pings_needed``, ``heading`` source, ``waiting_for``)."""
+    ``dvl_pings`` with bottom lock of ``dvl_pings_needed``, ``heading`` source, ``waiting_for``, ``imu_gaps``)."""
     rec = {"type": "status", "t": float(t), "wall_s": round(float(wall_s), 3),
            "state": "aligning" if nav.aligner is not None else "navigating"}
     if nav.aligner is not None:
@@ -284,7 +284,8 @@ def schema_text() -> str:
              "in body axes), cov_bias 6x6 [acc, gyro]; their 1-sigma sigma_p_n [3] m, sigma_v_n [3] m/s, sigma_rpy [3] "
              "rad; health (ok | degraded | diverged), health_why",
              "  status    t (last record, s), wall_s, state (aligning | navigating | waiting for data), alignment "
-             "{aligned_s, needed_s, dvl_pings, dvl_pings_needed, dvl_pings_ignored, heading, waiting_for [...]} "
+             "{aligned_s, needed_s, dvl_pings, dvl_pings_needed, dvl_pings_ignored, heading, waiting_for [...], "
+             "imu_gaps} "
              "while aligning, idle_s and source while no record comes",
              "", "Keys of a config record (and of a --config file; any subset; the others keep their defaults):"]
     import textwrap
