@@ -240,12 +240,13 @@ def header_clock_steps_removed(s: Stream, source: str, meta: dict, steps: list |
     periods in the header stamps reads as samples lost (an IMU's bridged by the run, a DVL's pings missing), but when
     the messages kept arriving at the period (header minus receive time steps by the gap and stays there) no message
     was lost: the topic's clock stepped (+5 s, or days: a driver's clock reset), and the stamps from that message on
-    are moved back so the step lasts as many periods as the receive time says passed (one, mostly). Each step is
-    warned about naming the topic, the message, its time and the field, and its messages counted as doubted on
-    ``kind`` in ``meta``; a gap the receive time shares too (messages lost, or the recorder's clock stepping with it)
-    is left as it is (an IMU's to :func:`graphnav.core.screening.say_imu_stamp_steps`). Each step moved back is
-    appended to ``steps`` (when given) as (the receive time of its first message, ns; the stamps' shift, ns) for
-    :func:`shared_clock_step_removed`."""
+    are moved back so the step lasts as many periods as the receive time says passed (one, or two: one message
+    lost). Each step is warned about naming the topic, the message, its time and the field, and its messages counted
+    as doubted on ``kind`` in ``meta``; a gap the receive time shares too, even in part (:data:`GAP_WARN_SAMPLES`
+    messages lost or more: the latency may drop as they are, a driver restarted or a backlog flushed; or the
+    recorder's clock stepping with it) is left as it is (an IMU's to
+    :func:`graphnav.core.screening.say_imu_stamp_steps`). Each step moved back is appended to ``steps`` (when given)
+    as (the receive time of its first message, ns; the stamps' shift, ns) for :func:`shared_clock_step_removed`."""
     from graphnav.core.imu_timing import GAP_WARN_SAMPLES, imu_step_stats
     if s.stamp_kind != "header" or s.receive_ns is None or len(s.t_ns) < 3:
         return s
@@ -262,6 +263,10 @@ def header_clock_steps_removed(s: Stream, source: str, meta: dict, steps: list |
             continue
         jump = (t_ns[i + 1] - t_ns[i]) / 1e9
         periods = max(1, round((jump - step) / period))
+        if periods - 1 >= GAP_WARN_SAMPLES:
+            # the receive time gaps too: messages were lost there, and a latency that drops as they are (a driver
+            # restarted, a backlog flushed) reads as the header clock stepping: the stamps are left as they are
+            continue
         shift_ns = int(round((jump - periods * period) * 1e9))
         t_ns[i + 1:] -= shift_ns
         latency[i + 1:] -= shift_ns / 1e9
