@@ -174,7 +174,9 @@ def test_a_dvl_losing_pings_as_its_latency_drops_keeps_its_header_stamps(tmp_pat
     """A 5 Hz DVL whose recorder latency is 1.5 s (a backlog) loses 2 s of pings at 15 s as the backlog is flushed
     (latency 0.05 s after): the header stamps gap 2.2 s, the receive time 0.75 s, header minus receive time steps
     +1.45 s. That read as the DVL's clock stepping: the 70 pings after the loss were moved 1.4 s early, warned as "no
-    messages lost". The receive time gapping too (3 pings' worth) says messages were lost: the stamps are kept."""
+    messages lost". The receive time gapping too (3 pings' worth) as header minus receive time comes nearer 0 says
+    the latency dropped as messages were lost: the stamps are kept. A +5 s step of the DVL's clock as as many pings are
+    lost (header minus receive time away from 0) is still moved back."""
     import dataclasses
 
     from graphnav.core.config import SensorConfig
@@ -199,3 +201,15 @@ def test_a_dvl_losing_pings_as_its_latency_drops_keeps_its_header_stamps(tmp_pat
     np.testing.assert_allclose(m.dvl.t, clean.dvl.t[kept], atol=2e-9)
     assert not [w for w in warned if "the header clock steps" in w]
     assert "doubted" not in m.meta["streams"]["dvl"]
+    # the DVL's clock stepping +5 s as the same pings are lost (a driver restarted) is still moved back
+
+    def stepped(topic, k, msg, rx):
+        if topic == "/dvl/data" and rx >= lost_from:
+            _set_stamp(msg, _stamp_ns(msg) + 5 * NS)
+        return None if topic == "/dvl/data" and lost_from <= rx < lost_to else rx + int(0.05 * NS) + k % 3 * 1_000_000
+
+    m, warned = _load(_rewritten(clean_path, tmp_path / "restarted", stepped))
+    np.testing.assert_allclose(m.dvl.t, clean.dvl.t[kept], atol=2e-9)
+    said = ("/dvl/data, message 75 (t = 22.000 s), field 'header.stamp': the header clock steps +7.200 s while the "
+            "receive time steps +2.")
+    assert len([w for w in warned if said in w and "s: 10 messages lost by it, the rest the clock's step" in w]) == 1
