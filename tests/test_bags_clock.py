@@ -168,3 +168,48 @@ def test_a_dvl_header_clock_stalling_restamps_those_pings_alone(sim, tmp_path):
     assert m.meta["streams"]["dvl"]["doubted"] == {bag_stamps.HEADER_CLOCK_STALL: 2}
     m, _ = _load(_rewritten(clean_path, tmp_path / "burst", stalled(13 + 10)))
     assert m.meta["clock"]["stamps"]["dvl"] == "receive"
+
+
+def test_a_dvl_losing_pings_as_its_latency_drops_keeps_its_header_stamps(tmp_path):
+    """A 5 Hz DVL whose recorder latency is 1.5 s (a backlog) loses 2 s of pings at 15 s as the backlog is flushed
+    (latency 0.05 s after): the header stamps gap 2.2 s, the receive time 0.75 s, header minus receive time steps
+    +1.45 s. That read as the DVL's clock stepping: the 70 pings after the loss were moved 1.4 s early, warned as "no
+    messages lost". The receive time gapping too (3 pings' worth) as header minus receive time comes nearer 0 says
+    the latency dropped as messages were lost: the stamps are kept. A +5 s step of the DVL's clock as as many pings are
+    lost (header minus receive time away from 0) is still moved back."""
+    import dataclasses
+
+    from graphnav.core.config import SensorConfig
+    cfg = SensorConfig()
+    cfg = dataclasses.replace(cfg, dvl=dataclasses.replace(cfg.dvl, rate_hz=5.0))
+    mission = simulate_mission(duration_s=30.0, seed=5, config=cfg)
+    clean_path = bags.write_mission_bag(mission, tmp_path / "clean", t0_unix_ns=T0_NS)
+    clean, _ = _load(clean_path)
+    lost_from, lost_to = T0_NS + 15 * NS, T0_NS + 17 * NS
+
+    def change(topic, k, msg, rx):
+        if topic != "/dvl/data":
+            return rx
+        if lost_from <= rx < lost_to:
+            return None
+        return rx + int((1.5 if rx < lost_from else 0.05) * NS) + k % 3 * 1_000_000
+
+    m, warned = _load(_rewritten(clean_path, tmp_path / "flushed", change))
+    t_mission = clean.dvl.t + mission.imu.t[0]          # the pings' receive time in the clean bag, s from T0_NS
+    kept = (t_mission < 15.0 - 1e-6) | (t_mission >= 17.0 - 1e-6)
+    assert kept.sum() == clean.dvl.t.size - 10 == m.dvl.t.size
+    np.testing.assert_allclose(m.dvl.t, clean.dvl.t[kept], atol=2e-9)
+    assert not [w for w in warned if "the header clock steps" in w]
+    assert "doubted" not in m.meta["streams"]["dvl"]
+    # the DVL's clock stepping +5 s as the same pings are lost (a driver restarted) is still moved back
+
+    def stepped(topic, k, msg, rx):
+        if topic == "/dvl/data" and rx >= lost_from:
+            _set_stamp(msg, _stamp_ns(msg) + 5 * NS)
+        return None if topic == "/dvl/data" and lost_from <= rx < lost_to else rx + int(0.05 * NS) + k % 3 * 1_000_000
+
+    m, warned = _load(_rewritten(clean_path, tmp_path / "restarted", stepped))
+    np.testing.assert_allclose(m.dvl.t, clean.dvl.t[kept], atol=2e-9)
+    said = ("/dvl/data, message 75 (t = 22.000 s), field 'header.stamp': the header clock steps +7.200 s while the "
+            "receive time steps +2.")
+    assert len([w for w in warned if said in w and "s: 10 messages lost by it, the rest the clock's step" in w]) == 1

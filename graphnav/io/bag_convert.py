@@ -240,12 +240,14 @@ def header_clock_steps_removed(s: Stream, source: str, meta: dict, steps: list |
     periods in the header stamps reads as samples lost (an IMU's bridged by the run, a DVL's pings missing), but when
     the messages kept arriving at the period (header minus receive time steps by the gap and stays there) no message
     was lost: the topic's clock stepped (+5 s, or days: a driver's clock reset), and the stamps from that message on
-    are moved back so the step lasts as many periods as the receive time says passed (one, mostly). Each step is
-    warned about naming the topic, the message, its time and the field, and its messages counted as doubted on
-    ``kind`` in ``meta``; a gap the receive time shares too (messages lost, or the recorder's clock stepping with it)
-    is left as it is (an IMU's to :func:`graphnav.core.screening.say_imu_stamp_steps`). Each step moved back is
-    appended to ``steps`` (when given) as (the receive time of its first message, ns; the stamps' shift, ns) for
-    :func:`shared_clock_step_removed`."""
+    are moved back so the step lasts as many periods as the receive time says passed (one, or two: one message
+    lost). Each step is warned about naming the topic, the message, its time and the field, and its messages counted
+    as doubted on ``kind`` in ``meta``; a gap the receive time shares too (messages lost, or the recorder's clock
+    stepping with it), or does in part (:data:`GAP_WARN_SAMPLES` messages lost or more by the receive time) while
+    header minus receive time comes nearer 0 (a latency dropping as they are lost: a driver restarted, a backlog
+    flushed) is left as it is (an IMU's to
+    :func:`graphnav.core.screening.say_imu_stamp_steps`). Each step moved back is appended to ``steps`` (when given)
+    as (the receive time of its first message, ns; the stamps' shift, ns) for :func:`shared_clock_step_removed`."""
     from graphnav.core.imu_timing import GAP_WARN_SAMPLES, imu_step_stats
     if s.stamp_kind != "header" or s.receive_ns is None or len(s.t_ns) < 3:
         return s
@@ -262,6 +264,10 @@ def header_clock_steps_removed(s: Stream, source: str, meta: dict, steps: list |
             continue
         jump = (t_ns[i + 1] - t_ns[i]) / 1e9
         periods = max(1, round((jump - step) / period))
+        if periods - 1 >= GAP_WARN_SAMPLES and _nearer_the_receive_clock(latency, i + 1, step):
+            # messages lost (the receive time gaps too) as header and receive time came closer: a latency dropping
+            # as they were lost (a driver restarted, a backlog flushed) reads as the header clock stepping
+            continue
         shift_ns = int(round((jump - periods * period) * 1e9))
         t_ns[i + 1:] -= shift_ns
         latency[i + 1:] -= shift_ns / 1e9
@@ -269,10 +275,13 @@ def header_clock_steps_removed(s: Stream, source: str, meta: dict, steps: list |
         if steps is not None:
             steps.append((int(rx_ns[i + 1]), shift_ns))
         at = _named(np.array([i + 1 if s.index is None else s.index[i + 1]]), t_ns[i + 1:i + 2] + shift_ns, t_ns[0])[0]
-        text = (f"{s.topic}, {at}, field '{STAMP_FIELDS['header']}': the header clock steps {jump:+.3f} s while the "
-                f"messages kept arriving (receive time {(rx_ns[i + 1] - rx_ns[i]) / 1e9:+.3f} s): no messages lost; "
-                f"the stamps from this message on are moved back by {shift_ns / 1e9:.3f} s onto the clock before "
-                f"the step")
+        rx_s = (rx_ns[i + 1] - rx_ns[i]) / 1e9
+        lost = ("while the messages kept arriving (receive time {:+.3f} s): no messages lost" if periods == 1 else
+                f"while the receive time steps {{:+.3f}} s: {periods - 1} messages lost by it, the rest the clock's "
+                "step")
+        text = (f"{s.topic}, {at}, field '{STAMP_FIELDS['header']}': the header clock steps {jump:+.3f} s "
+                f"{lost.format(rx_s)}; the stamps from this message on are moved back by {shift_ns / 1e9:.3f} s onto "
+                "the clock before the step")
         say_doubted(meta, kind, source, text, HEADER_CLOCK_STEP, len(t_ns) - i - 1, stacklevel=2)
     return dataclasses.replace(s, t_ns=t_ns) if moved else s
 
@@ -297,6 +306,14 @@ def check_stamp_jump(s: Stream, t0_ns: int, source: str) -> None:
                 f"; the receive time steps {rx_s:+.6g} s, but header minus receive time is too spread around it "
                 "to take the step out as the header clock's own")
     raise DataError(f"{at}: {why}", f"{source}:{s.topic}", None, STAMP_FIELDS[s.stamp_kind])
+
+
+def _nearer_the_receive_clock(latency: np.ndarray, k: int, step: float) -> bool:
+    """Whether header minus receive time ``latency`` (s) is nearer 0 after message ``k`` than before it, where it
+    steps by ``step`` (s, :func:`_latency_step`): the recorder's latency dropped, or a clock off the receive clock
+    set right."""
+    before = float(np.median(latency[max(0, k - HEADER_STEP_WINDOW):k]))
+    return abs(before + step) < abs(before)
 
 
 def _latency_step(latency: np.ndarray, k: int) -> tuple[float, float]:
