@@ -665,3 +665,29 @@ def test_a_file_cut_in_its_last_ensemble_with_the_whole_file_appended_has_no_cor
     assert log.counts == {**clean.counts, REPEATED_ENSEMBLE: n}
     np.testing.assert_array_equal(log.t, clean.t)
     np.testing.assert_array_equal(log.beams, clean.beams)
+
+
+@pytest.mark.parametrize("kept", [10, 40, 80])
+def test_an_ensemble_cut_before_its_number_and_clock_stays_corrupt_not_a_copy(sim, tmp_path, kept):
+    """An ensemble of which only the header and fixed leader are left (bytes a logger lost mid-file, or another
+    recording joined behind a cut): those bytes are the same in every ensemble of the instrument, so they cannot
+    say the ping is a copy of one read whole. It is counted and warned about as a corrupt ensemble, no copy is
+    named; it was called the cut end of a copy ("ensemble written twice") of the file's first ensemble."""
+    from graphnav.io.pd0 import REPEATED_ENSEMBLE
+    mission, root = sim
+    raw, n = (root / "dvl.000").read_bytes(), len(mission.dvl.t)
+    size = len(raw) // n
+    assert 80 < 6 + 2 * 4 + 59 + 12 < size          # header of 4 blocks, fixed leader, variable leader to its clock
+    k = n // 2
+    path = tmp_path / "dvl.000"
+    path.write_bytes(raw[:k * size + kept] + raw[(k + 1) * size:])
+    clean = _quiet_read(root / "dvl.000")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        log = read_pd0_log(path)
+    said = [str(w.message) for w in caught]
+    assert not [s for s in said if "written twice" in s]
+    assert [s for s in said if "1 ensemble(s) with a wrong checksum (corrupt) left out" in s]
+    assert REPEATED_ENSEMBLE not in log.counts
+    assert log.counts["bad checksum (ensemble left out)"] == 1
+    np.testing.assert_array_equal(log.t, np.delete(clean.t, k))

@@ -220,16 +220,21 @@ def _cut_copies(raw: bytes, cut: list, spans: list, end_cut: int | None) -> list
     and whose bytes are the start of a whole ensemble read (``spans``), or are those of the ensemble the end of the
     file cuts (at ``end_cut``, None: none) as far as both go: the cut end of a file with a copy of it joined behind
     (a file appended to itself, a download resumed from the start). Its checksum fails only because the next
-    ensemble's bytes take the place of its rest, so it is no corrupt ensemble."""
+    ensemble's bytes take the place of its rest, so it is no corrupt ensemble. Only bytes that reach past the
+    variable leader's number and clock tell which ping they are: the header and fixed leader before them are the
+    same in every ensemble of an instrument, so an ensemble cut before them (bytes a logger lost, another file
+    joined behind) stays a corrupt one."""
     found = []
     for start, length, stop in cut:
         present = raw[start:stop]
+        if _leader(present, 0)[0] < 0:      # cut before its number and clock: which ping it was cannot be told
+            continue
         whole = next((a for a, b in spans if b - a == length and raw[a:a + len(present)] == present), None)
         if whole is not None:
             found.append((_leader(raw, whole)[0], start, len(present), whole))
             continue
         tail = raw[end_cut:] if end_cut is not None else b""
-        if tail[2:4] == present[2:4] and tail[:len(present)] == present[:len(tail)]:
+        if _leader(tail, 0)[0] >= 0 and tail[2:4] == present[2:4] and tail[:len(present)] == present[:len(tail)]:
             found.append((_leader(present, 0)[0], start, len(present), None))      # its own bytes only
     return found
 
