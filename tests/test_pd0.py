@@ -618,26 +618,41 @@ def test_two_ensembles_swapped_across_a_roll_over_without_the_high_byte_are_sort
 def test_ensembles_sharing_a_time_load_beside_an_imu_spread_within_their_clock_tick(sim, tmp_path):
     """A DVL pinging at 1 Hz whose clock repeats each time for 2 s (two ensembles per time) reads alone at its
     recorded times, and beside an IMU loads (it was refused: "time stamp duplicated") with the second ping of each
-    time spread to the middle of its 2 s tick, warned about and counted as doubted; the first of each keeps its
-    time."""
+    time spread within the second a clock of whole seconds vouches for, warned about and counted as doubted; the
+    first of each keeps its time."""
     spread_key = "ensemble time shared with the ping before (stamp spread after it)"       # pd0.SPREAD_TIME
     mission, _ = sim
     t_s = 2.0 * np.floor(mission.dvl.t / 2.0)
     assert np.all(t_s[:-1:2] == t_s[1::2])
     m, rec = _load_written_pd0(sim, tmp_path, t_s=t_s)
     n = len(m.dvl.t)                                                 # dolfyn leaves the last ensemble
-    expected = t_s[:n] + np.where(np.arange(n) % 2, 1.0, 0.0)         # the mission's stamps start at its first
+    expected = t_s[:n] + np.where(np.arange(n) % 2, 0.5, 0.0)         # the mission's stamps start at its first
     np.testing.assert_allclose(m.dvl.t - m.dvl.t[0], expected, atol=1e-6)
     dvl = m.meta["streams"]["dvl"]
     assert dvl["doubted"] == {spread_key: n // 2}
     said = [str(w.message) for w in rec if "share their ensemble's time" in str(w.message)]
     assert said == [f"{tmp_path / 'dvl.000'}: {n // 2} of {n} ping(s) share their ensemble's time (the variable "
                     "leader's clock) with the ping before (a clock that ticks slower than the instrument pings, or "
-                    "repeats a time): spread after it in ensemble order within the clock's tick, at most 1.000 s "
+                    "repeats a time): spread after it in ensemble order within the clock's tick, at most 0.500 s "
                     f"after the time recorded, first ensemble 2 (byte {len(_ensembles_of(tmp_path / 'dvl.000')[0])}) "
                     "at 2024-05-01 12:00:00.00; the DVL's own clock cannot tell these times better"]
     assert said[0].split(": ", 1)[1] in dvl["notes"]
     np.testing.assert_array_equal(_quiet_read(tmp_path / "dvl.000").t, START.timestamp() + t_s[:n])
+
+
+def test_pings_in_bursts_on_a_clock_of_whole_seconds_are_spread_within_their_second_not_over_the_pause():
+    """Bursts of 4 pings 0.25 s apart every 10 s on a clock of whole seconds (4 ensembles per time): spread 0.25 s
+    apart within the second their clock vouches for, not 2.5 s apart over the pause between bursts (up to 7.5 s after
+    the time recorded); a clock with hundredths repeating a time keeps the step between its times."""
+    from graphnav.io.pd0 import spread_shared_times
+    t0 = 1.7e9
+    true = t0 + (10.0 * np.arange(6)[:, None] + 0.25 * np.arange(4)[None, :]).ravel()
+    spread, moved = spread_shared_times(np.floor(true))
+    np.testing.assert_allclose(spread - t0, true - t0, atol=1e-6)
+    assert moved.sum() == 18
+    repeated = t0 + np.repeat(np.arange(0.0, 10.0, 2.0), 2) + 0.37             # each time of a hundredths clock twice
+    spread, _ = spread_shared_times(repeated)
+    np.testing.assert_allclose(np.diff(spread - t0), 1.0, atol=1e-6)
 
 
 def test_a_file_cut_in_its_last_ensemble_with_the_whole_file_appended_has_no_corrupt_ensemble(sim, tmp_path):

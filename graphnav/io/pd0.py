@@ -919,13 +919,19 @@ def read_pd0(path: str | Path, config: SensorConfig | None = None) -> tuple[DvlD
 SPREAD_TIME = "ensemble time shared with the ping before (stamp spread after it)"
 
 
+#: The tick of a clock whose every time is a whole second (its hundredths zero): the true time of a ping it stamps
+#: lies in the second after.
+WHOLE_SECOND_TICK_S = 1.0
+
+
 def spread_shared_times(t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Stamps ``t`` (Unix s, in time order) with the pings that share one time spread after the first of them, and
     which were moved: an instrument pinging faster than its clock ticks (a clock of whole seconds, one that repeats
     a time) gives several ensembles one time, which a mission's DVL stream (one stamp per ping) cannot hold. The
     ``k`` pings at a time ``T`` are put ``min(T' - T, tick) / k`` apart from ``T`` in ensemble order, ``T'`` the next
-    time and ``tick`` the clock's (the median step between its distinct times; RDI's 0.01 s when it gives one time
-    only): each stays inside the tick its clock gave it, and a gap after them is not spread over."""
+    time and ``tick`` the clock's: the median step between its distinct times, at most the second a clock of whole
+    seconds vouches for (pings in bursts would otherwise be spread over the pause between bursts), RDI's 0.01 s when it
+    gives one time only. A gap after them is not spread over."""
     t = np.asarray(t, float)
     if len(t) < 2 or np.all(np.diff(t) > 0):
         return t, np.zeros(len(t), bool)
@@ -933,6 +939,8 @@ def spread_shared_times(t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     sizes = np.diff(np.r_[starts, len(t)])
     room = np.diff(np.r_[t[starts], np.inf])
     tick = float(np.median(room[:-1])) if len(starts) > 1 else 0.01
+    if np.all(t[starts] == np.round(t[starts])):
+        tick = min(tick, WHOLE_SECOND_TICK_S)
     rank = np.arange(len(t)) - np.repeat(starts, sizes)
     return t + rank * np.repeat(np.minimum(room, tick) / sizes, sizes), rank > 0
 
