@@ -630,8 +630,9 @@ def imu_unmeasured(t: np.ndarray, f_b: np.ndarray, omega_b: np.ndarray, fields=I
     named by the first of ``fields``). Zero and NaN are so in any unit: a reader refuses them before it judges the
     IMU's units or axes by its rows. ``t`` (N,) s, ``f_b`` (N,3) m/s^2, ``omega_b`` (N,3) rad/s (any units)."""
     filler = imu_filler(f_b, omega_b)
-    check_filler_gaps(t, filler, source, lines)
-    return {IMU_FILLER: filler, **not_finite(np.hstack([f_b, omega_b]), fields)}
+    nan = not_finite(np.hstack([f_b, omega_b]), fields)
+    check_filler_gaps(t, filler, source, lines, unmeasured=np.any([filler, *nan.values()], axis=0))
+    return {IMU_FILLER: filler, **nan}
 
 
 def imu_filler(f_b: np.ndarray, omega_b: np.ndarray) -> np.ndarray:
@@ -640,18 +641,31 @@ def imu_filler(f_b: np.ndarray, omega_b: np.ndarray) -> np.ndarray:
     return ~np.any(np.asarray(f_b, float) != 0.0, axis=1) & ~np.any(np.asarray(omega_b, float) != 0.0, axis=1)
 
 
-def check_filler_gaps(t: np.ndarray, filler: np.ndarray, source: str, lines: np.ndarray | None = None) -> None:
+def check_filler_gaps(t: np.ndarray, filler: np.ndarray, source: str, lines: np.ndarray | None = None,
+                      unmeasured: np.ndarray | None = None) -> None:
     """DataError (:func:`graphnav.core.mission.check_imu_gap`, naming ``source``, the stamps around the gap and, when
-    ``lines`` gives it, the file line of the row after it) when a run of ``filler`` rows (N,) bool between two other
+    ``lines`` gives it, the file line of the row after it) when a run of rows without a measurement between two other
     rows at stamps ``t`` (N,) s leaves an IMU gap longer than can be bridged: the IMU stopped there as it does in a
-    true gap of that length. A run at either end of the file only starts the IMU later or ends it earlier."""
+    true gap of that length. ``filler`` (N,) bool: the all-zero rows; ``unmeasured`` (N,) bool: those and any other
+    row refused for holding no measurement (a NaN, :func:`imu_unmeasured`; default ``filler``): filler next to NaN
+    rows leaves one gap. A run at either end of the file only starts the IMU later or ends it earlier; a file of
+    filler only is a DataError too (the IMU delivered nothing)."""
     from graphnav.core.mission import check_imu_gap
-    t = np.asarray(t, float)
-    for a, last in _runs(np.asarray(filler, bool)):
+    t, filler = np.asarray(t, float), np.asarray(filler, bool)
+    if len(t) and filler.all():
+        raise DataError(f"all {len(t)} IMU rows are all-zero (a logger's filler: zero specific force is impossible "
+                        "under gravity): the IMU delivered no measurement", source,
+                        None if lines is None else int(lines[0]), None)
+    gone = filler if unmeasured is None else np.asarray(unmeasured, bool)
+    for a, last in _runs(gone):
         b = last + 1
-        if a > 0 and b < len(t):
+        if a > 0 and b < len(t) and filler[a:b].any():
+            zeros = int(filler[a:b].sum())
+            left_by = (f"{b - a} all-zero IMU row(s) (a logger's filler)" if zeros == b - a else
+                       f"{b - a} IMU row(s) without a measurement ({zeros} all-zero: a logger's filler; the others NaN "
+                       "or infinite)")
             check_imu_gap(float(t[a - 1]), float(t[b]), source, None if lines is None else int(lines[b]), None,
-                          what=f"IMU gap left by {b - a} all-zero IMU row(s) (a logger's filler)")
+                          what=f"IMU gap left by {left_by}")
 
 
 def _note_shocks(kept: list, meta: dict | None, source: str) -> None:
