@@ -3048,3 +3048,20 @@ def test_an_imu_of_filler_only_or_filler_beside_nan_rows_past_the_bridge_limit_i
     y[1025:1050] = x[1025:1050]            # the same stamps, the rows after the filler real: 350 s, bridged
     assert imu_unmeasured(t_gap, y[:, :3], y[:, 3:], source="imu.csv", lines=lines)[
         "all-zero IMU row (a logger's filler: zero specific force is impossible under gravity)"].sum() == 25
+
+
+def test_a_dead_accelerometer_beside_a_live_gyro_is_refused_and_counted_a_quantized_resting_gyro_is_not():
+    """Three accelerometer values of exactly 0 beside a gyro still reading (the accelerometer dead, not a logger's
+    all-zero filler): 5 s of them passed every check without a word (a run that long is no spike) and were integrated
+    as free fall. They are refused and counted under their own reason, as bad data; rows where only the gyro reads
+    exactly 0 are kept (a quantized gyro at rest does)."""
+    from graphnav.core.screening import ACCEL_ZERO, IMU_FILLER, imu_implausible
+    t, x = _quiet_imu(100.0, 30.0)
+    x[1000:1500, :3] = 0.0                                   # 5 s, accelerometer dead
+    x[2000:2500, 3:] = 0.0                                   # 5 s, gyro reading exactly 0
+    x[2600] = 0.0                                            # filler
+    masks = imu_implausible(t, x[:, :3], x[:, 3:], SensorConfig(), source="imu.csv")
+    assert np.flatnonzero(masks[ACCEL_ZERO]).tolist() == list(range(1000, 1500))
+    assert np.flatnonzero(masks[IMU_FILLER]).tolist() == [2600]
+    refused = np.any([m for m in masks.values()], axis=0)
+    assert not refused[2000:2500].any() and refused.sum() == 501
