@@ -3024,3 +3024,44 @@ def test_all_zero_imu_rows_are_refused_as_filler_and_a_run_past_the_bridge_limit
     with pytest.raises(DataError, match=r"imu\.csv, line 3101: IMU gap left by 99 all-zero IMU row\(s\) \(a "
                                         r"logger's filler\) of 601 s after t = 29\.990 s is longer than the 600 s"):
         imu_implausible(t_long, y[:, :3], y[:, 3:], SensorConfig(), source="imu.csv", lines=np.arange(t_long.size) + 2)
+
+
+def test_an_imu_of_filler_only_or_filler_beside_nan_rows_past_the_bridge_limit_is_a_data_error():
+    """A file whose every IMU row is all-zero filler (a logger that wrote only filler) ended in an IndexError (column
+    maps: the screening was left no row) or one in the clock search (bags): it is a DataError naming the file and its
+    first line. Filler next to NaN rows leaves one gap: 350 s of each between two rows was bridged without a word as
+    700 s (the check saw each run alone); it is the IMU stopping, as a true 700 s gap, or 700 s of filler, is."""
+    from graphnav.core.screening import imu_unmeasured
+    t, x = _quiet_imu(100.0, 30.0)
+    lines = np.arange(t.size) + 2
+    with pytest.raises(DataError, match=r"imu\.csv, line 2: all 3000 IMU rows are all-zero \(a logger's filler"):
+        imu_unmeasured(t, np.zeros((t.size, 3)), np.zeros((t.size, 3)), source="imu.csv", lines=lines)
+    t_gap = t.copy()
+    t_gap[1013:] += 350.0
+    t_gap[1038:] += 350.0
+    y = x.copy()
+    y[1000:1025] = 0.0
+    y[1025:1050] = np.nan
+    with pytest.raises(DataError, match=r"imu\.csv, line 1052: IMU gap left by 50 IMU row\(s\) without a measurement "
+                                        r"\(25 all-zero: a logger's filler; the others NaN or infinite\) of 700\.51 s after t = 9\.990 s"):
+        imu_unmeasured(t_gap, y[:, :3], y[:, 3:], source="imu.csv", lines=lines)
+    y[1025:1050] = x[1025:1050]            # the same stamps, the rows after the filler real: 350 s, bridged
+    assert imu_unmeasured(t_gap, y[:, :3], y[:, 3:], source="imu.csv", lines=lines)[
+        "all-zero IMU row (a logger's filler: zero specific force is impossible under gravity)"].sum() == 25
+
+
+def test_a_dead_accelerometer_beside_a_live_gyro_is_refused_and_counted_a_quantized_resting_gyro_is_not():
+    """Three accelerometer values of exactly 0 beside a gyro still reading (the accelerometer dead, not a logger's
+    all-zero filler): 5 s of them passed every check without a word (a run that long is no spike) and were integrated
+    as free fall. They are refused and counted under their own reason, as bad data; rows where only the gyro reads
+    exactly 0 are kept (a quantized gyro at rest does)."""
+    from graphnav.core.screening import ACCEL_ZERO, IMU_FILLER, imu_implausible
+    t, x = _quiet_imu(100.0, 30.0)
+    x[1000:1500, :3] = 0.0                                   # 5 s, accelerometer dead
+    x[2000:2500, 3:] = 0.0                                   # 5 s, gyro reading exactly 0
+    x[2600] = 0.0                                            # filler
+    masks = imu_implausible(t, x[:, :3], x[:, 3:], SensorConfig(), source="imu.csv")
+    assert np.flatnonzero(masks[ACCEL_ZERO]).tolist() == list(range(1000, 1500))
+    assert np.flatnonzero(masks[IMU_FILLER]).tolist() == [2600]
+    refused = np.any([m for m in masks.values()], axis=0)
+    assert not refused[2000:2500].any() and refused.sum() == 501

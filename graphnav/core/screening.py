@@ -143,6 +143,11 @@ IMU_STALLED = f"stalled (repeats the row before it in every value for {IMU_STALL
 #: bridged as any IMU gap. It is silence, not a bad sample: no share of it makes a stream's data wrong
 #: (:func:`over_refused_limit`).
 IMU_FILLER = "all-zero IMU row (a logger's filler: zero specific force is impossible under gravity)"
+#: Reason of an IMU row whose three accelerometer values are exactly 0 and the gyro's not all (:func:`imu_unmeasured`):
+#: a dead accelerometer beside a live gyro, no measurement of the specific force (gravity's is never 0). Counted as
+#: bad data: 5 s of them beside a live gyro were kept without a word, as 5 s of free fall (400 s simulated).
+ACCEL_ZERO = ("accelerometer all zero beside a live gyro (a dead accelerometer: zero specific force is impossible "
+              "under gravity)")
 #: Names of the IMU's six values, in the order of ``f_b`` then ``omega_b`` (reasons and warnings of loaders whose
 #: files have no column names of their own).
 IMU_FIELDS = ("f_b x", "f_b y", "f_b z", "omega_b x", "omega_b y", "omega_b z")
@@ -650,7 +655,8 @@ def imu_implausible(t: np.ndarray, f_b: np.ndarray, omega_b: np.ndarray, config:
     unmeasured = imu_unmeasured(t, f_b, omega_b, fields, source, lines)
     out_of_range = imu_out_of_range(f_b, omega_b, config)
     # the filler's stamps are the IMU's clock still ticking: its rate counts them
-    bad = np.any([m for k, m in unmeasured.items() if k != IMU_FILLER] + list(out_of_range.values()), axis=0)
+    bad = np.any([m for k, m in unmeasured.items() if k not in (IMU_FILLER, ACCEL_ZERO)] + list(out_of_range.values()),
+                 axis=0)
     rate = imu_rate_hz(np.asarray(t, float)[~bad])
     if imu_spike_rows(rate) is None:
         note = imu_spike_off_note(rate)
@@ -667,12 +673,15 @@ def imu_implausible(t: np.ndarray, f_b: np.ndarray, omega_b: np.ndarray, config:
 def imu_unmeasured(t: np.ndarray, f_b: np.ndarray, omega_b: np.ndarray, fields=IMU_FIELDS, source: str = "",
                    lines: np.ndarray | None = None) -> dict[str, np.ndarray]:
     """The IMU rows that hold no measurement, by reason, disjoint: a logger's all-zero filler (:func:`imu_filler`;
-    :func:`check_filler_gaps` with ``source`` and the file ``lines``), a NaN or infinite value (:func:`not_finite`,
-    named by the first of ``fields``). Zero and NaN are so in any unit: a reader refuses them before it judges the
+    :func:`check_filler_gaps` with ``source`` and the file ``lines``), three accelerometer values of exactly 0
+    beside a gyro's (:data:`ACCEL_ZERO`), a NaN or infinite value (:func:`not_finite`, named by the first of
+    ``fields``). Zero and NaN are so in any unit: a reader refuses them before it judges the
     IMU's units or axes by its rows. ``t`` (N,) s, ``f_b`` (N,3) m/s^2, ``omega_b`` (N,3) rad/s (any units)."""
     filler = imu_filler(f_b, omega_b)
-    check_filler_gaps(t, filler, source, lines)
-    return {IMU_FILLER: filler, **not_finite(np.hstack([f_b, omega_b]), fields)}
+    dead = ~np.any(np.asarray(f_b, float) != 0.0, axis=1) & ~filler
+    nan = not_finite(np.hstack([f_b, omega_b]), fields)
+    check_filler_gaps(t, filler, source, lines, unmeasured=np.any([filler, dead, *nan.values()], axis=0))
+    return {IMU_FILLER: filler, ACCEL_ZERO: dead, **nan}
 
 
 def imu_filler(f_b: np.ndarray, omega_b: np.ndarray) -> np.ndarray:
@@ -681,18 +690,31 @@ def imu_filler(f_b: np.ndarray, omega_b: np.ndarray) -> np.ndarray:
     return ~np.any(np.asarray(f_b, float) != 0.0, axis=1) & ~np.any(np.asarray(omega_b, float) != 0.0, axis=1)
 
 
-def check_filler_gaps(t: np.ndarray, filler: np.ndarray, source: str, lines: np.ndarray | None = None) -> None:
+def check_filler_gaps(t: np.ndarray, filler: np.ndarray, source: str, lines: np.ndarray | None = None,
+                      unmeasured: np.ndarray | None = None) -> None:
     """DataError (:func:`graphnav.core.mission.check_imu_gap`, naming ``source``, the stamps around the gap and, when
-    ``lines`` gives it, the file line of the row after it) when a run of ``filler`` rows (N,) bool between two other
+    ``lines`` gives it, the file line of the row after it) when a run of rows without a measurement between two other
     rows at stamps ``t`` (N,) s leaves an IMU gap longer than can be bridged: the IMU stopped there as it does in a
-    true gap of that length. A run at either end of the file only starts the IMU later or ends it earlier."""
+    true gap of that length. ``filler`` (N,) bool: the all-zero rows; ``unmeasured`` (N,) bool: those and any other
+    row refused for holding no measurement (a NaN, :func:`imu_unmeasured`; default ``filler``): filler next to NaN
+    rows leaves one gap. A run at either end of the file only starts the IMU later or ends it earlier; a file of
+    filler only is a DataError too (the IMU delivered nothing)."""
     from graphnav.core.mission import check_imu_gap
-    t = np.asarray(t, float)
-    for a, last in _runs(np.asarray(filler, bool)):
+    t, filler = np.asarray(t, float), np.asarray(filler, bool)
+    if len(t) and filler.all():
+        raise DataError(f"all {len(t)} IMU rows are all-zero (a logger's filler: zero specific force is impossible "
+                        "under gravity): the IMU delivered no measurement", source,
+                        None if lines is None else int(lines[0]), None)
+    gone = filler if unmeasured is None else np.asarray(unmeasured, bool)
+    for a, last in _runs(gone):
         b = last + 1
-        if a > 0 and b < len(t):
+        if a > 0 and b < len(t) and filler[a:b].any():
+            zeros = int(filler[a:b].sum())
+            left_by = (f"{b - a} all-zero IMU row(s) (a logger's filler)" if zeros == b - a else
+                       f"{b - a} IMU row(s) without a measurement ({zeros} all-zero: a logger's filler; the others NaN "
+                       "or infinite)")
             check_imu_gap(float(t[a - 1]), float(t[b]), source, None if lines is None else int(lines[b]), None,
-                          what=f"IMU gap left by {b - a} all-zero IMU row(s) (a logger's filler)")
+                          what=f"IMU gap left by {left_by}")
 
 
 def _note_shocks(kept: list, meta: dict | None, source: str) -> None:

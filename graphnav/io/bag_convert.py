@@ -375,7 +375,7 @@ def imu(s: Stream, t0_ns: int, source: str, meta: dict) -> ImuData:
     where = messages(s, t0_ns)
     finite = np.all(np.isfinite(f), axis=1) & np.all(np.isfinite(w), axis=1)
     filler = imu_filler(f, w)
-    check_filler_gaps(t, filler, f"{source}:{s.topic}")
+    check_filler_gaps(t, filler, f"{source}:{s.topic}", unmeasured=filler | ~finite)
     for bad, what, reason in ((~finite, "IMU message(s) with a NaN or infinite value", "not finite"),
                               (filler, "all-zero IMU message(s) (a logger's filler: zero specific force is impossible "
                                        "under gravity; the run bridges the gap left)", IMU_FILLER)):
