@@ -13,10 +13,11 @@ entered). Beams a completer regresses at a ping without any measured beam are no
 inertial whether its pings are in the log with no valid beam (NaN, flagged invalid, no bottom lock) or missing from
 it, and the warning says where the velocity then comes from: a hybrid method's completed beams (those its screening
 let in: offered ones it took out are none), or the IMU alone. A stretch of epochs without aiding runs from the last
-aided epoch before it (or the first epoch). When a stretch becomes longer than the limit the monitor warns once, at that epoch ("pure inertial for X s since t0");
-when aiding resumes after such a stretch it warns again ("aiding resumed ... after X s pure inertial") with
-the predicted velocity sigma at the stretch's last un-aided epoch. :meth:`CoastingMonitor.summary` goes into
-``info``. :func:`check_pure_inertial` runs the same monitor over a finished solution's arrays.
+aided epoch before it (or the first epoch). When a stretch becomes longer than the limit the monitor warns once, at that
+epoch ("pure inertial for X s since t0"); when aiding resumes after such a stretch it warns again ("aiding resumed ...
+after X s pure inertial") with the predicted velocity sigma at the stretch's last un-aided epoch.
+:meth:`CoastingMonitor.summary` goes into ``info``. :func:`check_pure_inertial` runs the same monitor over a finished
+solution's arrays.
 
 Time alone says little: a MEMS IMU is off by 1 m/s after 60 s without aiding, a navigation-grade one by
 centimetres per second. :class:`SigmaMonitor` judges what the estimator itself predicts: an estimate whose claimed

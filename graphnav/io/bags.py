@@ -330,8 +330,9 @@ def _record(meta: dict, stream: str, s: Stream, t0_ns: int, source: str, warned:
     """Counts and notes of a chosen topic (refused when its stamps jump by days,
     :func:`graphnav.io.bag_convert.check_stamp_jump`): what it read (including messages its stamps could not order
     and those written twice, warned about here unless ``warned``: the IMU's topic read again as the heading; the
-    stamps repaired and doubted), and, but for a ``sensor_msgs/Imu`` topic (whose steps :func:`graphnav.io.bag_convert.imu` says), the messages stamped on the
-    point of the one before them, doubted (:func:`graphnav.core.screening.say_close_samples`), as a log's rows are."""
+    stamps repaired and doubted), and, but for a ``sensor_msgs/Imu`` topic (whose steps
+    :func:`graphnav.io.bag_convert.imu` says), the messages stamped on the point of the one before them, doubted
+    (:func:`graphnav.core.screening.say_close_samples`), as a log's rows are."""
     conv.check_stamp_jump(s, t0_ns, source)
     t = (s.t_ns - t0_ns) / 1e9
     dropped = s.n_read - len(t)
