@@ -173,3 +173,14 @@ def test_a_vehicle_at_rest_repeating_one_reading_is_not_held_back(records):
             feed(nav, rec)
     progress = nav.aligner.progress()
     assert progress["aligned_s"] > 58.5 and progress["dvl_pings"] >= 55, progress
+
+
+def test_a_dvl_on_its_own_clock_days_ahead_is_named_as_such_not_as_a_step_to_split_at(records):
+    """Every DVL record stamped 2 days ahead while the IMU and depth go on: the DVL's own clock is off. It was
+    told as "the clock jumped 172800 s ahead at t = 0.000 s ... split the stream there", which no split mends."""
+    config, recs = records
+    with pytest.raises(DataError) as err:
+        _run(config, [dict(r, t=r["t"] + 2 * 86400.0) if r["type"] == "dvl" else r for r in recs])
+    text = str(err.value)
+    assert "201 of 201 dvl samples are stamped more than 86400 s ahead" in text, text
+    assert "the dvl stamps are not on the clock the other streams share" in text and "split" not in text

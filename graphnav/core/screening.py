@@ -1897,10 +1897,17 @@ class StreamScreen:
         up to a step)."""
         return self._jump_open and self._imu_jump_run >= CLOCK_JUMP_CONFIRM_S * self.config.imu_rate_hz
 
-    def clock_jump_text(self, received: dict[str, int]) -> str:
+    def clock_jump_text(self, received: dict[str, int], refused_stream: str = "imu") -> str:
         """The clock jump of :attr:`clock_jump` in words, with the samples of each stream (``received``: counts
-        per stream) it refused."""
+        per stream) it refused; when ``refused_stream``, mostly refused for jumps, is not the IMU and no IMU sample
+        jumped, its own clock is days off the others' (splitting the stream would not help)."""
         stream, before, after = self.clock_jump
+        if refused_stream != "imu" and not self.jumped.get("imu"):
+            n = self.jumped.get(refused_stream, 0)
+            return (f"{n} of {received.get(refused_stream, n)} {refused_stream} samples are stamped more than "
+                    f"{MAX_STAMP_GAP_S:g} s ahead of the IMU's (by {after - before:.6g} s at t = {before:.3f} s) "
+                    f"while the IMU went on: the {refused_stream} stamps are not on the clock the other streams "
+                    "share; correct its stamps (their offset) or its clock")
         refused = ", ".join(f"{n} of {received.get(s, n)} {s}" for s, n in self.jumped.items())
         return (f"the clock jumped {after - before:.6g} s ahead at t = {before:.3f} s, "
                 f"first on the {stream} stream (its sample stamped {after:.6g} s): more than {MAX_STAMP_GAP_S:g} s, "

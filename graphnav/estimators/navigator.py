@@ -601,7 +601,7 @@ class Navigator:
         for stream, n in self.received.items():
             bad = self.samples_refused.get(stream, 0)
             if n >= 10 and bad > MAX_REFUSED_FRACTION * n and self._screen.jumped.get(stream, 0) > bad / 2:
-                raise DataError(f"navigator: {self._screen.clock_jump_text(self.received)}",
+                raise DataError(f"navigator: {self._screen.clock_jump_text(self.received, stream)}",
                                 self._screen.clock_jump[0], field="t")
             if n >= 10 and bad > MAX_REFUSED_FRACTION * n:
                 reasons = ", ".join(f"{k}: {c}" for k, c in sorted(self.refused.get(stream, {}).items(),
