@@ -765,8 +765,8 @@ class Navigator:
         """Whether the IMU sample leaving the reorder buffer (stamp ``t`` s) is held or refused as part of a run
         repeating the sample before it (:class:`~graphnav.core.screening.ImuStallTest`, the loaders' rule): held
         while the run is shorter than a stall, refused once it is one (a run no length makes one, a reading of a
-        vehicle at rest, goes on at once: held, it delayed every estimate as long as the vehicle rested); a sample ending a held run that was no stall
-        comes back after it, to go on in stamp order."""
+        vehicle at rest, goes on at once: held, it delayed every estimate as long as the vehicle rested); a sample
+        ending a held run that was no stall comes back after it, to go on in stamp order."""
         if t <= self._stall_cleared:
             return False
         held, refused = self._stall_held, self._stall_refused
