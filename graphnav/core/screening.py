@@ -597,6 +597,11 @@ class ImuStallTest:
         """Whether the six values (f_b then omega_b) repeat the last sample passed."""
         return self._last is not None and values == self._last[1]
 
+    def may_stall(self) -> bool:
+        """Whether a run repeating the last sample passed would be a stall if long enough: not when it reads a
+        vehicle at rest or the rows before it repeat often (then no length makes it one, and nothing is held)."""
+        return self.stalled(self._last[0] + IMU_STALL_MIN_S)
+
     def stalled(self, t_last: float) -> bool:
         """Whether the held run, repeating the last sample passed up to the stamp ``t_last`` (s), is a stall."""
         t_read, reading = self._last
@@ -1864,28 +1869,45 @@ class StreamScreen:
         self.clock_jump: tuple[str, float, float] | None = None
         #: samples per stream refused for such a jump
         self.jumped: dict[str, int] = {}
+        #: IMU samples refused for the jump of :attr:`clock_jump` since no IMU sample went on past it (0 when one
+        #: did: that jump was a corrupted stamp, and the next starts a new one)
+        self._imu_jump_run = 0
+        self._jump_open = False
 
     def stamp_problem(self, stream: str, t: float) -> str | None:
         """Why a stamp of ``stream`` is refused: beyond the bounds, or a jump of more than
         :data:`MAX_STAMP_GAP_S` ahead of the newest stamp of the streams (they share one clock: the first such
         jump is kept in :attr:`clock_jump`, the samples refused for one counted in :attr:`jumped`)."""
         why = stamp_problem(t, self._newest)
-        if why is None and float(t) > self._newest:
-            self._newest = float(t)
-        elif why is not None and math.isfinite(self._newest) and abs(float(t)) <= MAX_STAMP_S \
-                and float(t) - self._newest > MAX_STAMP_GAP_S:
-            self.clock_jump = self.clock_jump or (stream, self._newest, float(t))
+        if why is None:
+            if stream == "imu" and self._jump_open and float(t) > self.clock_jump[1]:
+                self._jump_open = False     # the IMU went on past the jump on the old clock: no step
+            if float(t) > self._newest:
+                self._newest = float(t)
+        elif math.isfinite(self._newest) and abs(float(t)) <= MAX_STAMP_S and float(t) - self._newest > MAX_STAMP_GAP_S:
+            if not self._jump_open:
+                self.clock_jump, self._jump_open, self._imu_jump_run = (stream, self._newest, float(t)), True, 0
             self.jumped[stream] = self.jumped.get(stream, 0) + 1
+            self._imu_jump_run += stream == "imu"
         return why
 
     def clock_stepped(self) -> bool:
-        """Whether the IMU samples refused for a jump cover :data:`CLOCK_JUMP_CONFIRM_S` at the configured rate."""
-        return self.jumped.get("imu", 0) >= CLOCK_JUMP_CONFIRM_S * self.config.imu_rate_hz
+        """Whether the IMU samples refused for the jump of :attr:`clock_jump`, with no IMU sample going on past it
+        meanwhile, cover :data:`CLOCK_JUMP_CONFIRM_S` at the configured rate (isolated corrupted stamps do not add
+        up to a step)."""
+        return self._jump_open and self._imu_jump_run >= CLOCK_JUMP_CONFIRM_S * self.config.imu_rate_hz
 
-    def clock_jump_text(self, received: dict[str, int]) -> str:
+    def clock_jump_text(self, received: dict[str, int], refused_stream: str = "imu") -> str:
         """The clock jump of :attr:`clock_jump` in words, with the samples of each stream (``received``: counts
-        per stream) it refused."""
+        per stream) it refused; when ``refused_stream``, mostly refused for jumps, is not the IMU and no IMU sample
+        jumped, its own clock is days off the others' (splitting the stream would not help)."""
         stream, before, after = self.clock_jump
+        if refused_stream != "imu" and not self.jumped.get("imu"):
+            n = self.jumped.get(refused_stream, 0)
+            return (f"{n} of {received.get(refused_stream, n)} {refused_stream} samples are stamped more than "
+                    f"{MAX_STAMP_GAP_S:g} s ahead of the IMU's (by {after - before:.6g} s at t = {before:.3f} s) "
+                    f"while the IMU went on: the {refused_stream} stamps are not on the clock the other streams "
+                    "share; correct its stamps (their offset) or its clock")
         refused = ", ".join(f"{n} of {received.get(s, n)} {s}" for s, n in self.jumped.items())
         return (f"the clock jumped {after - before:.6g} s ahead at t = {before:.3f} s, "
                 f"first on the {stream} stream (its sample stamped {after:.6g} s): more than {MAX_STAMP_GAP_S:g} s, "

@@ -601,7 +601,7 @@ class Navigator:
         for stream, n in self.received.items():
             bad = self.samples_refused.get(stream, 0)
             if n >= 10 and bad > MAX_REFUSED_FRACTION * n and self._screen.jumped.get(stream, 0) > bad / 2:
-                raise DataError(f"navigator: {self._screen.clock_jump_text(self.received)}",
+                raise DataError(f"navigator: {self._screen.clock_jump_text(self.received, stream)}",
                                 self._screen.clock_jump[0], field="t")
             if n >= 10 and bad > MAX_REFUSED_FRACTION * n:
                 reasons = ", ".join(f"{k}: {c}" for k, c in sorted(self.refused.get(stream, {}).items(),
@@ -764,12 +764,13 @@ class Navigator:
     def _stalled(self, t: float, f: tuple, w: tuple) -> bool:
         """Whether the IMU sample leaving the reorder buffer (stamp ``t`` s) is held or refused as part of a run
         repeating the sample before it (:class:`~graphnav.core.screening.ImuStallTest`, the loaders' rule): held
-        while the run is shorter than a stall, refused once it is one; a sample ending a held run that was no stall
-        comes back after it, to go on in stamp order."""
+        while the run is shorter than a stall, refused once it is one (a run no length makes one, a reading of a
+        vehicle at rest, goes on at once: held, it delayed every estimate as long as the vehicle rested); a sample
+        ending a held run that was no stall comes back after it, to go on in stamp order."""
         if t <= self._stall_cleared:
             return False
         held, refused = self._stall_held, self._stall_refused
-        if self._stall.repeats(f + w):
+        if self._stall.repeats(f + w) and (held or refused or self._stall.may_stall()):
             self._prop = None
             if refused:
                 refused.append(t)
