@@ -114,6 +114,9 @@ class ImuIntegrals:
     W: np.ndarray
     M: np.ndarray
     omega: np.ndarray
+    #: (G,2) the start and end stamps (s) of the IMU's gaps (:func:`imu_gaps`), across which the integrals hold the
+    #: last sample: no window of pings spanning one is fitted (:meth:`_WindowModel.pings`)
+    gaps: np.ndarray = field(default_factory=lambda: np.empty((0, 2)), compare=False)
     #: ``F``, ``W``, ``omega`` and ``M`` (as 9 columns) side by side, (K,18), row by row: built on the first
     #: :meth:`at`, kept for every other (a prepare step's clock models share it: ``clock.ImuSide``)
     _rows: np.ndarray | None = field(default=None, init=False, repr=False, compare=False)
@@ -161,7 +164,23 @@ def imu_integrals(t: np.ndarray, f_b: np.ndarray, omega_b: np.ndarray, step_s: f
     # column-major: a column interpolated alone (np.interp) is not copied out of the rows (M too, as the (K,9) columns
     # its (K,3,3) view reshapes back to); the clock's scores interpolate all of them at once (ImuIntegrals.at's rows)
     M = np.asfortranarray(M.reshape(-1, 9)).reshape(-1, 3, 3)
-    return ImuIntegrals(edges, *map(np.asfortranarray, (F, W)), M, np.asfortranarray(omega))
+    return ImuIntegrals(edges, *map(np.asfortranarray, (F, W)), M, np.asfortranarray(omega), imu_gaps(t))
+
+
+def imu_gaps(t: np.ndarray) -> np.ndarray:
+    """(G,2): the start and end stamps (s) of the steps between IMU stamps ``t`` (s) over
+    :data:`~graphnav.core.mission.IMU_GAP_PERIODS` median periods (a gap the run bridges) and over
+    :data:`IMU_GRID_S` (the integrals' own step, which a sample or two lost at a fast rate stays under).
+
+    Across a gap the integrals hold the last sample's acceleration and turn: a window of pings spanning it is scored
+    on made-up ones. A simulated 400 s log with 5 s of IMU rows deleted at 80 s, its DVL 12 s late, had its DVL clock
+    put at +124 / +154 / +115 s (seeds 1-3) on the windows spanning the gap at those offsets; without them, -12.0."""
+    from graphnav.core.mission import IMU_GAP_PERIODS
+    steps = np.diff(t)
+    if not len(steps):
+        return np.empty((0, 2))
+    gap = np.flatnonzero(steps > max(IMU_GAP_PERIODS * float(np.median(steps)), IMU_GRID_S))
+    return np.column_stack([t[gap], t[gap + 1]]).astype(float)
 
 
 def dvl_velocity_b(dvl, config=None) -> tuple[np.ndarray, np.ndarray]:
@@ -256,7 +275,8 @@ class _WindowModel:
     offsets a few seconds apart score nearly the same pings and none wins by leaving out a window it explains
     badly). No window spans a gap of more than ``max_gap_s`` (:data:`MAX_WINDOW_GAP_S`; the clock search's and the
     speed check's scale fit's :data:`MAX_CLOCK_GAP_S`, :func:`outage_cut_model`); the padding of a window cut short
-    by one (``real`` False) is fitted at no offset.
+    by one (``real`` False) is fitted at no offset, nor at an offset a window whose pings span a gap in the IMU
+    (:func:`imu_gaps`: the integrals hold the last sample across it), as one outside the IMU span.
     ``t_pings``: the stamps of every ping it was built from (s), in the windows or not (the clock search's span,
     period and gaps)."""
 
@@ -290,10 +310,20 @@ class _WindowModel:
 
     def pings(self, offset: float) -> np.ndarray:
         """(win, window) True at the pings fitted at ``offset`` s: those inside the IMU span, of the windows keeping
-        enough (class docstring), less a window's padding (:func:`window_rows`)."""
+        enough (class docstring), less a window's padding (:func:`window_rows`), and none of a window whose pings
+        there span a gap in the IMU (:func:`imu_gaps`)."""
         t = self.t + offset
         inside = (t >= self.imu.t[0]) & (t <= self.imu.t[-1])
-        return with_enough_pings((inside if self.trim else inside & inside.all(axis=1, keepdims=True)) & self.real)
+        use = with_enough_pings((inside if self.trim else inside & inside.all(axis=1, keepdims=True)) & self.real)
+        return use & ~self._across_imu_gaps(t, use)[:, None] if len(self.imu.gaps) else use
+
+    def _across_imu_gaps(self, t: np.ndarray, use: np.ndarray) -> np.ndarray:
+        """(win,) True at the windows whose pings ``use`` (win, window), at stamps ``t`` on the IMU clock (s), span
+        one of the IMU's gaps (:func:`imu_gaps`), or have one between them."""
+        first = np.min(np.where(use, t, np.inf), axis=1)[:, None]
+        last = np.max(np.where(use, t, -np.inf), axis=1)[:, None]
+        start, end = self.imu.gaps[:, 0], self.imu.gaps[:, 1]
+        return np.any((start < last) & (end > first), axis=1)
 
     def imu_at(self, offset: float, use: np.ndarray | None = None):
         """``(use, windows, ints)`` at ``offset`` s: the pings ``use`` (win, window; default :meth:`pings`), True at
