@@ -1089,10 +1089,11 @@ def test_a_dvl_late_beside_an_imu_with_a_gap_is_found_at_its_offset(sim_200, gap
 
 
 def test_only_imu_gaps_the_run_bridges_leave_windows_out(sim_200):
-    """A sample lost at 100 Hz (a 0.02 s step) is integrated over as the stamps say; a 0.3 s step is a gap, and the
-    window model fits no window of pings spanning it at an offset, but those either side of it."""
+    """Samples lost for under `IMU_GAP_MIN_S` (0.25 s; here a 0.2 s step at 100 Hz) are integrated over as the stamps
+    say; a 0.3 s step is a gap, and the window model fits no window of pings spanning it at an offset, but those either
+    side."""
     from graphnav.core.dvl_kinematics import imu_gaps, outage_cut_model
-    imu = _imu_without(_imu_without(sim_200.imu, 30.0, 0.015), 80.0, 0.3)
+    imu = _imu_without(_imu_without(sim_200.imu, 30.0, 0.195), 80.0, 0.3)
     gaps = imu_gaps(imu.t)
     assert gaps.shape == (1, 2) and gaps[0] == pytest.approx([80.0, 80.3], abs=1e-6)
     model = outage_cut_model(imu, sim_200.dvl, sim_200.config)
