@@ -1061,3 +1061,44 @@ def test_a_manoeuvre_repeated_is_not_placed_a_period_off_by_the_windows_lead():
     assert not est.clear and not est.confident, est
     with pytest.raises(DataError, match="no clear offset"):
         align_stream_clocks(imu, dvl, None, {}, part.config)
+
+
+@pytest.fixture(scope="module")
+def sim_200():
+    cfg = SensorConfig()
+    cfg.dvl = dataclasses.replace(cfg.dvl, beam_noise_std=0.01)
+    return simulate_mission(200.0, seed=1, config=cfg)
+
+
+def _imu_without(imu, t0: float, seconds: float):
+    """``imu`` with its samples stamped inside (t0, t0 + seconds) deleted: a gap the run bridges."""
+    keep = ~((imu.t > t0) & (imu.t < t0 + seconds))
+    return dataclasses.replace(imu, t=imu.t[keep], f_b=imu.f_b[keep], omega_b=imu.omega_b[keep])
+
+
+@pytest.mark.parametrize("gap_s", [2.0, 5.0])
+def test_a_dvl_late_beside_an_imu_with_a_gap_is_found_at_its_offset(sim_200, gap_s):
+    """Across a gap the IMU's integrals hold its last sample: the windows whose IMU interval spans it at an offset are
+    scored on made-up accelerations and turns, and placed a 200 s log's DVL, 12 s late, 88 s further off beside a 5 s
+    gap (confident, +100.2 s) and 0.65 s off beside a 2 s one. Those windows are left out at that offset."""
+    imu = _imu_without(sim_200.imu, 80.0, gap_s)
+    est = estimate_dvl_clock_offset(imu, _shifted(sim_200.dvl, 12.0), sim_200.config)
+    assert est.confident, est
+    assert est.offset_s == pytest.approx(12.0, abs=0.1)
+    assert est.sigma_s < 0.1
+
+
+def test_only_imu_gaps_the_run_bridges_leave_windows_out(sim_200):
+    """Samples lost for under `IMU_GAP_MIN_S` (0.25 s; here a 0.2 s step at 100 Hz) are integrated over as the stamps
+    say; a 0.3 s step is a gap, and the window model fits no window of pings spanning it at an offset, but those either
+    side."""
+    from graphnav.core.dvl_kinematics import imu_gaps, outage_cut_model
+    imu = _imu_without(_imu_without(sim_200.imu, 30.0, 0.195), 80.0, 0.3)
+    gaps = imu_gaps(imu.t)
+    assert gaps.shape == (1, 2) and gaps[0] == pytest.approx([80.0, 80.3], abs=1e-6)
+    model = outage_cut_model(imu, sim_200.dvl, sim_200.config)
+    for offset in (0.0, 5.0):
+        used = model.pings(offset).any(axis=1)
+        first, last = model.t[:, 0] + offset, model.t[:, -1] + offset
+        assert not np.any(used & (first < 80.3) & (last > 80.0))
+        assert np.all(used[(last < 80.0) | (first > 80.3)][:-1])

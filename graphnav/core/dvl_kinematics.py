@@ -21,6 +21,12 @@ from graphnav.core.timeseries import cumulative_integral, interp_rows
 
 #: Step of the IMU grid the integrals are kept on, s.
 IMU_GRID_S = 0.05
+#: Shortest gap between IMU stamps, s, across which no window of pings is fitted (:func:`imu_gaps`; the run's own bar,
+#: :data:`~graphnav.core.mission.IMU_GAP_PERIODS` periods, where longer). One gap at 80 s of simulated logs (400 s,
+#: seeds 1-3; 200 s, seeds 1-2; DVL 12 s late) moved the clock found by at most 1 ms at 0.25 s, 12 ms at 0.5 s,
+#: 10-160 ms at 1 s, and 0.5-166 s at 2 s; six samples dropped every 10 s (0.07 s steps) moved it by 3 ms, where
+#: leaving out every window spanning one left none.
+IMU_GAP_MIN_S = 0.25
 #: Length of the windows over which the gravity seen at the window start is fitted, s.
 WINDOW_S = 20.0
 #: Fewest pings a window reaching past the IMU's ends keeps to be fitted by the clock search: its v0 and g0 are 6
@@ -114,6 +120,9 @@ class ImuIntegrals:
     W: np.ndarray
     M: np.ndarray
     omega: np.ndarray
+    #: (G,2) the start and end stamps (s) of the IMU's gaps (:func:`imu_gaps`), across which the integrals hold the
+    #: last sample: no window of pings spanning one is fitted (:meth:`_WindowModel.pings`)
+    gaps: np.ndarray = field(default_factory=lambda: np.empty((0, 2)), compare=False)
     #: ``F``, ``W``, ``omega`` and ``M`` (as 9 columns) side by side, (K,18), row by row: built on the first
     #: :meth:`at`, kept for every other (a prepare step's clock models share it: ``clock.ImuSide``)
     _rows: np.ndarray | None = field(default=None, init=False, repr=False, compare=False)
@@ -161,7 +170,23 @@ def imu_integrals(t: np.ndarray, f_b: np.ndarray, omega_b: np.ndarray, step_s: f
     # column-major: a column interpolated alone (np.interp) is not copied out of the rows (M too, as the (K,9) columns
     # its (K,3,3) view reshapes back to); the clock's scores interpolate all of them at once (ImuIntegrals.at's rows)
     M = np.asfortranarray(M.reshape(-1, 9)).reshape(-1, 3, 3)
-    return ImuIntegrals(edges, *map(np.asfortranarray, (F, W)), M, np.asfortranarray(omega))
+    return ImuIntegrals(edges, *map(np.asfortranarray, (F, W)), M, np.asfortranarray(omega), imu_gaps(t))
+
+
+def imu_gaps(t: np.ndarray) -> np.ndarray:
+    """(G,2): the start and end stamps (s) of the steps between IMU stamps ``t`` (s) over
+    :data:`~graphnav.core.mission.IMU_GAP_PERIODS` median periods (a gap the run bridges) and over
+    :data:`IMU_GAP_MIN_S` (shorter ones barely move a fit: samples lost often are not worth every window).
+
+    Across a gap the integrals hold the last sample's acceleration and turn: a window of pings spanning it is scored
+    on made-up ones. A simulated 400 s log with 5 s of IMU rows deleted at 80 s, its DVL 12 s late, had its DVL clock
+    put at +124 / +154 / +115 s (seeds 1-3) on the windows spanning the gap at those offsets; without them, -12.0."""
+    from graphnav.core.mission import IMU_GAP_PERIODS
+    steps = np.diff(t)
+    if not len(steps):
+        return np.empty((0, 2))
+    gap = np.flatnonzero(steps > max(IMU_GAP_PERIODS * float(np.median(steps)), IMU_GAP_MIN_S))
+    return np.column_stack([t[gap], t[gap + 1]]).astype(float)
 
 
 def dvl_velocity_b(dvl, config=None) -> tuple[np.ndarray, np.ndarray]:
@@ -256,7 +281,8 @@ class _WindowModel:
     offsets a few seconds apart score nearly the same pings and none wins by leaving out a window it explains
     badly). No window spans a gap of more than ``max_gap_s`` (:data:`MAX_WINDOW_GAP_S`; the clock search's and the
     speed check's scale fit's :data:`MAX_CLOCK_GAP_S`, :func:`outage_cut_model`); the padding of a window cut short
-    by one (``real`` False) is fitted at no offset.
+    by one (``real`` False) is fitted at no offset, nor at an offset a window whose pings span a gap in the IMU
+    (:func:`imu_gaps`: the integrals hold the last sample across it), as one outside the IMU span.
     ``t_pings``: the stamps of every ping it was built from (s), in the windows or not (the clock search's span,
     period and gaps)."""
 
@@ -290,10 +316,20 @@ class _WindowModel:
 
     def pings(self, offset: float) -> np.ndarray:
         """(win, window) True at the pings fitted at ``offset`` s: those inside the IMU span, of the windows keeping
-        enough (class docstring), less a window's padding (:func:`window_rows`)."""
+        enough (class docstring), less a window's padding (:func:`window_rows`), and none of a window whose pings
+        there span a gap in the IMU (:func:`imu_gaps`)."""
         t = self.t + offset
         inside = (t >= self.imu.t[0]) & (t <= self.imu.t[-1])
-        return with_enough_pings((inside if self.trim else inside & inside.all(axis=1, keepdims=True)) & self.real)
+        use = with_enough_pings((inside if self.trim else inside & inside.all(axis=1, keepdims=True)) & self.real)
+        return use & ~self._across_imu_gaps(t, use)[:, None] if len(self.imu.gaps) else use
+
+    def _across_imu_gaps(self, t: np.ndarray, use: np.ndarray) -> np.ndarray:
+        """(win,) True at the windows whose pings ``use`` (win, window), at stamps ``t`` on the IMU clock (s), span
+        one of the IMU's gaps (:func:`imu_gaps`), or have one between them."""
+        first = np.min(np.where(use, t, np.inf), axis=1)[:, None]
+        last = np.max(np.where(use, t, -np.inf), axis=1)[:, None]
+        start, end = self.imu.gaps[:, 0], self.imu.gaps[:, 1]
+        return np.any((start < last) & (end > first), axis=1)
 
     def imu_at(self, offset: float, use: np.ndarray | None = None):
         """``(use, windows, ints)`` at ``offset`` s: the pings ``use`` (win, window; default :meth:`pings`), True at
