@@ -2991,7 +2991,7 @@ def test_all_zero_imu_rows_are_refused_as_filler_and_a_run_past_the_bridge_limit
     own reason, one row among good ones as well as a run, and they are no share of bad data (filler over more than half
     the file, at its start, is an IMU that started late); a run leaving a gap longer than can be bridged is the
     IMU stopping, a DataError naming the line after it, as a true gap that long is."""
-    from graphnav.core.mission import MAX_IMU_BRIDGE_S
+    from graphnav.core.screening import MAX_IMU_BRIDGE_S
     from graphnav.core.screening import imu_implausible, refuse_rows
     t, x = _quiet_imu(100.0, 30.0)
     x[[500, 1200]] = 0.0

@@ -16,7 +16,7 @@ import numpy as np
 
 from graphnav.core.config import SensorConfig
 from graphnav.core.errors import DataError
-from graphnav.core.screening import check_stamps, located
+from graphnav.core.screening import check_imu_gap, check_stamps, located
 
 #: Largest along-beam (or DVL-axis) velocity magnitude a DVL can report, m/s: the velocity range of the
 #: RDI Workhorse/Pathfinder class (+-10 m/s), far above any AUV speed. A larger value is an invalid flag or
@@ -62,30 +62,6 @@ IMU_GAP_SIGMA_LENGTH_S = 2.0
 #: Bridging may add at most this many interpolated samples per recorded one: more means the stamps are not in
 #: seconds or the rate is wrong (a real log with gaps for 90 % of its time is not navigable anyway).
 MAX_BRIDGE_FACTOR = 10
-#: Longest IMU gap bridged by interpolation, s. Beyond it the IMU stopped rather than dropped samples:
-#: interpolating would invent minutes of motion (and, for a stamp years off, never end); a DataError says so.
-MAX_IMU_BRIDGE_S = 600.0
-
-
-def check_imu_gap(t0: float, t1: float, source: str, index: int | None = None, field: str = "t",
-                  what: str = "IMU gap") -> None:
-    """DataError when an IMU gap from t0 to t1 (s) is longer than :data:`MAX_IMU_BRIDGE_S` (``index``: the line or
-    index of the sample after it, ``field``: the stamp's column, ``what``: the gap, as the message names it)."""
-    if t1 - t0 > MAX_IMU_BRIDGE_S:
-        raise DataError(f"{what} of {t1 - t0:.6g} s after t = {t0:.3f} s is longer than the {MAX_IMU_BRIDGE_S:g} s "
-                        f"that can be bridged: the IMU stopped (or a stamp is wrong{whole_hours(t1 - t0)}); split "
-                        "the mission there", source, index, field)
-
-
-def whole_hours(step_s: float) -> str:
-    """``": N h to within a minute: a time zone or clock change applied mid-log?"`` for a stamp step (s) that
-    close to a whole number of hours, else ``""``: a logger's clock put to another time zone jumps by hours."""
-    hours = round(step_s / 3600.0)
-    if hours == 0 or abs(step_s - 3600.0 * hours) > 60.0:
-        return ""
-    return f": {hours:+d} h to within a minute, a time zone or clock change applied mid-log?"
-
-
 def invalid_dvl_values(values: np.ndarray, max_speed: float = MAX_DVL_SPEED_MPS) -> np.ndarray:
     """Mask of DVL velocities (any shape, m/s) that are not measurements: NaN/inf, RDI's bad-velocity
     markers, or beyond ``max_speed`` in magnitude."""

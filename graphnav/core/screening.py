@@ -695,16 +695,39 @@ def imu_filler(f_b: np.ndarray, omega_b: np.ndarray) -> np.ndarray:
     return ~np.any(np.asarray(f_b, float) != 0.0, axis=1) & ~np.any(np.asarray(omega_b, float) != 0.0, axis=1)
 
 
+#: Longest IMU gap bridged by interpolation, s. Beyond it the IMU stopped rather than dropped samples:
+#: interpolating would invent minutes of motion (and, for a stamp years off, never end); a DataError says so.
+MAX_IMU_BRIDGE_S = 600.0
+
+
+def check_imu_gap(t0: float, t1: float, source: str, index: int | None = None, field: str = "t",
+                  what: str = "IMU gap") -> None:
+    """DataError when an IMU gap from t0 to t1 (s) is longer than :data:`MAX_IMU_BRIDGE_S` (``index``: the line or
+    index of the sample after it, ``field``: the stamp's column, ``what``: the gap, as the message names it)."""
+    if t1 - t0 > MAX_IMU_BRIDGE_S:
+        raise DataError(f"{what} of {t1 - t0:.6g} s after t = {t0:.3f} s is longer than the {MAX_IMU_BRIDGE_S:g} s "
+                        f"that can be bridged: the IMU stopped (or a stamp is wrong{whole_hours(t1 - t0)}); split "
+                        "the mission there", source, index, field)
+
+
+def whole_hours(step_s: float) -> str:
+    """``": N h to within a minute: a time zone or clock change applied mid-log?"`` for a stamp step (s) that
+    close to a whole number of hours, else ``""``: a logger's clock put to another time zone jumps by hours."""
+    hours = round(step_s / 3600.0)
+    if hours == 0 or abs(step_s - 3600.0 * hours) > 60.0:
+        return ""
+    return f": {hours:+d} h to within a minute, a time zone or clock change applied mid-log?"
+
+
 def check_filler_gaps(t: np.ndarray, filler: np.ndarray, source: str, lines: np.ndarray | None = None,
                       unmeasured: np.ndarray | None = None) -> None:
-    """DataError (:func:`graphnav.core.mission.check_imu_gap`, naming ``source``, the stamps around the gap and, when
+    """DataError (:func:`check_imu_gap`, naming ``source``, the stamps around the gap and, when
     ``lines`` gives it, the file line of the row after it) when a run of rows without a measurement between two other
     rows at stamps ``t`` (N,) s leaves an IMU gap longer than can be bridged: the IMU stopped there as it does in a
     true gap of that length. ``filler`` (N,) bool: the all-zero rows; ``unmeasured`` (N,) bool: those and any other
     row refused for holding no measurement (a NaN, :func:`imu_unmeasured`; default ``filler``): filler next to NaN
     rows leaves one gap. A run at either end of the file only starts the IMU later or ends it earlier; a file of
     filler only is a DataError too (the IMU delivered nothing)."""
-    from graphnav.core.mission import check_imu_gap
     t, filler = np.asarray(t, float), np.asarray(filler, bool)
     if len(t) and filler.all():
         raise DataError(f"all {len(t)} IMU rows are all-zero (a logger's filler: zero specific force is impossible "

@@ -55,7 +55,8 @@ import numpy as np
 from graphnav.core.config import SensorConfig
 from graphnav.core.dvl import DvlGeometry, off_period
 from graphnav.core.errors import ConfigError
-from graphnav.core.mission import OUTSIDE_SPAN_TOLERANCE_S, ImuGap, check_imu_gap, gap_variances
+from graphnav.core.mission import OUTSIDE_SPAN_TOLERANCE_S, ImuGap, gap_variances
+from graphnav.core.screening import check_imu_gap
 from graphnav.estimators.history import BeamHistory, run_sigma_of
 from graphnav.estimators.imu_buffer import NO_WINDOW_REASONS, ImuWindowBuffer
 from graphnav.estimators.imu_stream_timing import ImuPeriod

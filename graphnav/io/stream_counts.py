@@ -95,7 +95,7 @@ def _name_stamp_jump(mission: Mission, outside: np.ndarray) -> None:
     """Warn about and note a step of the DVL stamps longer than an IMU gap can be (:data:`MAX_IMU_BRIDGE_S`) that
     takes pings (``outside``: the used ones outside the IMU span) out of the IMU span: a clock that jumped (a time
     zone set mid-log) loses them as surely as an outage, and the outage and outside-span warnings did not say why."""
-    from graphnav.core.mission import MAX_IMU_BRIDGE_S, whole_hours
+    from graphnav.core.screening import MAX_IMU_BRIDGE_S, whole_hours
     t = mission.dvl.t
     steps = np.flatnonzero(np.diff(t) > MAX_IMU_BRIDGE_S)
     jumps = [i for i in steps if outside[i + 1:].all() or outside[:i + 1].all()]

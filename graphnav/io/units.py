@@ -1204,7 +1204,7 @@ STAMP_JUMP_STEPS = 100.0
 def _stamp_jump(t: np.ndarray | None) -> str:
     """What a reference's largest stamp step says when it is a jump of its clock (over a minute and
     :data:`STAMP_JUMP_STEPS` median steps), else ``""``."""
-    from graphnav.core.mission import whole_hours
+    from graphnav.core.screening import whole_hours
     steps = np.diff(np.asarray(t, float)) if t is not None and len(t) > 2 else np.zeros(0)
     if not steps.size:
         return ""
@@ -1585,8 +1585,8 @@ def stamps_in_seconds(t: np.ndarray, stream: str, source: str, meta: dict | None
 
 
 def _imu_gaps(t: np.ndarray, source: str, field: str, lines: np.ndarray | None) -> None:
-    """:func:`graphnav.core.mission.check_imu_gap` on the longest step of stamps ``t`` (s, as read)."""
-    from graphnav.core.mission import check_imu_gap
+    """:func:`graphnav.core.screening.check_imu_gap` on the longest step of stamps ``t`` (s, as read)."""
+    from graphnav.core.screening import check_imu_gap
     step = np.diff(t)
     if not np.any(np.isfinite(step)):
         return
