@@ -587,7 +587,8 @@ class ImuStallTest:
     """The stalled-sensor rule of :func:`imu_stalled` on a live IMU, in stamp order: :meth:`repeats` says whether a
     sample repeats the one before it in every value (the caller holds such samples), :meth:`stalled` whether the run
     it holds is a stall, judged by the rows of the :data:`IMU_STALL_CONTEXT_S` before the reading it repeats (a live
-    stream cannot wait for the second after it), and :meth:`passed` takes each sample that went on."""
+    stream cannot wait for the second after it; none in the stream's first second), and :meth:`passed` takes each
+    sample that went on."""
 
     def __init__(self):
         self._recent: deque[tuple[float, bool]] = deque()     # (stamp s, repeated the one before) of those passed
@@ -606,7 +607,10 @@ class ImuStallTest:
         """Whether the held run, repeating the last sample passed up to the stamp ``t_last`` (s), is a stall."""
         t_read, reading = self._last
         around = [r for t, r in self._recent if t >= t_read - IMU_STALL_CONTEXT_S and t < t_read]
-        return stalled_run(t_last - t_read, np.asarray(reading, float), sum(around) / len(around) if around else None)
+        # under a second of samples before it, nothing tells a stall from an IMU whose rows repeat everywhere (a
+        # noiseless or coarse one from its start): the loaders judge by the rows after it too, a live stream cannot
+        told = around and self._recent[0][0] <= t_read - IMU_STALL_CONTEXT_S
+        return stalled_run(t_last - t_read, np.asarray(reading, float), sum(around) / len(around) if told else None)
 
     def passed(self, t: float, values: tuple) -> None:
         """A sample (stamp ``t`` s, six values) went on to the estimator."""
