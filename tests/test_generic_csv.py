@@ -42,6 +42,27 @@ def _config(tmp_path, mission, cmap):
     return path
 
 
+#: An A-KIT trajectory's IMU and DVL files as a column map reads them (:func:`_akit_as_column_map`).
+AKIT_COLUMN_MAP = {
+    "time_unit": "s",
+    "imu": {"file": "imu.csv", "t": "Time [s]", "f_b": ["ACC X [m/s^2]", "ACC Y [m/s^2]", "ACC Z [m/s^2]"],
+            "omega_b": ["GYRO X [rad/s]", "GYRO Y [rad/s]", "GYRO Z [rad/s]"]},
+    "dvl": {"file": "dvl.csv", "t": "Time [s]", "v_b": ["DVL X [m/s]", "DVL Y [m/s]", "DVL Z [m/s]"]}}
+
+
+def _akit_as_column_map(akit_dir, folder, name="Trajectory1", imu_edit=None):
+    """(folder, its config.json): the trajectory's IMU and DVL files copied to ``folder`` as ``imu.csv`` and
+    ``dvl.csv`` with a column map naming their columns; ``imu_edit``: a change to the IMU file's lines (header
+    first)."""
+    folder.mkdir(parents=True, exist_ok=True)
+    n = name.replace("Trajectory", "")
+    for stream, edit in (("IMU", imu_edit), ("DVL", None)):
+        lines = (akit_dir / name / f"{stream}_trajectory{n}.csv").read_text().splitlines()
+        (folder / f"{stream.lower()}.csv").write_text("\n".join(edit(lines) if edit else lines) + "\n")
+    (folder / "config.json").write_text(json.dumps({"csv_columns": AKIT_COLUMN_MAP}))
+    return folder, folder / "config.json"
+
+
 def _separate_files(tmp_path, m):
     """IMU in g and deg/s with ms stamps; DVL beams in mm/s with validity flags; pressure in dbar; GT in deg."""
     _write(tmp_path / "imu.csv", ["time_ms", "ax", "ay", "az", "gx", "gy", "gz"],
@@ -1651,3 +1672,28 @@ def test_all_zero_imu_rows_are_refused_at_load_before_the_dvl_clock_search_and_s
     assert len(m.imu.t) == len(sim.imu.t) - 52 and np.all(np.any(m.imu.f_b != 0.0, axis=1))
     said = [str(w.message) for w in caught if "all-zero IMU row" in str(w.message)]
     assert len(said) == 1 and f"imu.csv: 52 imu sample(s) refused (52 {filler}) at line(s) 5002, 8002, 8003" in said[0]
+
+
+def test_a_quoted_decimal_comma_in_a_comma_separated_file_gets_the_decimal_comma_advice(akit_dir, tmp_path):
+    """Trajectory1 as a column map with one cell written ``"0,5"`` (quoted: one cell of a comma-separated file) was
+    refused as ``not a number: '0,5'`` without the advice the same cell unquoted gets (two cells: a decimal comma). It
+    is refused with that advice, naming the file, line and column: ``"1,250"`` may be 1250 with a thousands separator,
+    so the cell is not read as 0.5. In a ';'-separated file the same cell reads as 0.5."""
+    def quoted(sep):
+        def edit(lines):
+            lines = [line.replace(",", sep) for line in lines]
+            cells = lines[500].split(sep)
+            lines[500] = sep.join([cells[0], '"0,5"', *cells[2:]])
+            return lines
+        return edit
+    folder, config = _akit_as_column_map(akit_dir, tmp_path / "quoted", imu_edit=quoted(","))
+    with pytest.raises(DataError, match=r"imu\.csv, line 501, field 'ACC X \[m/s\^2\]': not a number: '0,5', a "
+                                        r"decimal comma in a quoted cell of a ','-separated file \(write decimal "
+                                        r"points, or separate the cells by ';' or tab\)"):
+        load_mission(folder, config)
+    folder, config = _akit_as_column_map(akit_dir, tmp_path / "semicolons", imu_edit=quoted(";"))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        m = load_mission(folder, config)
+    assert any(note.endswith("1 number(s) with a decimal comma read") for note in m.meta["streams"]["imu"]["notes"])
+    assert len(m.imu.t) == 40000

@@ -3051,6 +3051,105 @@ def test_an_imu_of_filler_only_or_filler_beside_nan_rows_past_the_bridge_limit_i
         "all-zero IMU row (a logger's filler: zero specific force is impossible under gravity)"].sum() == 25
 
 
+def _zero_imu_rows(rows, stamps=True):
+    """An edit of an A-KIT IMU file's lines (header first) writing the ``rows`` (0-based data rows) as a logger's
+    all-zero filler, their stamps kept or (``stamps`` False) zeroed too."""
+    def edit(lines):
+        for i in rows:
+            lines[i + 1] = (lines[i + 1].split(",")[0] if stamps else "0") + ",0,0,0,0,0,0"
+        return lines
+    return edit
+
+
+def _quiet_load(load, *args):
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        m = load(*args)
+    return m, [str(w.message) for w in caught]
+
+
+def test_filler_rows_with_their_stamps_zeroed_too_are_filler_not_stamps_out_of_order(akit_dir, tmp_path):
+    """Trajectory1 as a column map and as an A-KIT folder with 50 IMU rows (0.5 s at t = 100 s) written whole as zeros,
+    stamp included, as loggers write filler: refused as 49 rows repeating an earlier one and 'time stamp out of order
+    (99.99249981249532 s then 0.0 s) ... pass repair=True (command line: --repair-stamps)', advice that drops the
+    filler as duplicates of one another and keeps the first row at t = 0. They are a logger's filler, and read as filler
+    with their stamps kept is: refused under its reason (counted as read), the IMU read as then, the gap bridged."""
+    from graphnav.core.screening import IMU_FILLER
+    from graphnav.missions import load_akit, load_mission
+    from tests.test_generic_csv import _akit_as_column_map
+    rows = range(10000, 10050)
+    loaded = {}
+    for stamps in (True, False):
+        data, config = _akit_as_column_map(akit_dir, tmp_path / f"map{stamps}", imu_edit=_zero_imu_rows(rows, stamps))
+        loaded[stamps], said = _quiet_load(load_mission, data, config)
+        imu = loaded[stamps].meta["streams"]["imu"]
+        assert (imu["read"], imu["used"], imu["refused"]) == (40000, 39950, {IMU_FILLER: 50})
+        assert not [w for w in said if "repair" in w or "repeating an earlier row" in w]
+    for key in ("t", "f_b", "omega_b"):
+        np.testing.assert_array_equal(getattr(loaded[True].imu, key), getattr(loaded[False].imu, key))
+    folder = _copy_trajectory(akit_dir, tmp_path)
+    _edit_lines(folder / "IMU_trajectory1.csv", _zero_imu_rows(rows, stamps=False))
+    m, said = _quiet_load(load_akit, folder)
+    assert m.meta["streams"]["imu"]["refused"] == {IMU_FILLER: 50} and len(m.imu.t) == 39950
+    assert any("50 imu sample(s) refused (50 all-zero IMU row" in w and "line(s) 10002, 10003" in w for w in said)
+
+
+def test_nan_imu_rows_over_700_s_are_the_imu_stopping_as_deleted_rows_and_filler_are(akit_dir, tmp_path):
+    """Trajectory1 as a column map with the IMU's second half 700 s later: the rows between deleted, or written at
+    1 Hz as all-zero filler, were refused as the IMU stopping; written at 1 Hz with NaN values they loaded, the 700 s
+    left to be bridged (at 100 Hz over the 700 s: 'more than 50% of the stream; check the units'). One rule for every
+    IMU gap: each is the IMU stopping, named by the file and the line after the gap."""
+    from graphnav.missions import load_mission
+    from tests.test_generic_csv import _akit_as_column_map
+
+    def later(values):
+        def edit(lines):
+            head, tail = lines[:20001], lines[20001:]
+            gap = [f"{199.995 + k!r},{values}" for k in range(1, 700)] if values else []
+            return head + gap + [f"{float(line.split(',')[0]) + 700.0!r},{line.split(',', 1)[1]}" for line in tail]
+        return edit
+    nan_rows = r"IMU gap left by 699 IMU row\(s\) without a measurement"
+    for values, line, left in ((None, 20002, "IMU gap"), ("0,0,0,0,0,0", 20701, "IMU gap left by 699 all-zero IMU"),
+                               (",".join(["nan"] * 6), 20701, nan_rows)):
+        data, config = _akit_as_column_map(akit_dir, tmp_path / str(line) / str(values), imu_edit=later(values))
+        with pytest.raises(DataError, match=rf"imu\.csv, line {line}.*{left}.* of 700\.01 s after t = 199\.995 s is "
+                                            r"longer than the 600 s that can be bridged: the IMU stopped"):
+            load_mission(data, config)
+
+
+def test_an_imu_almost_all_filler_is_refused_naming_the_file_and_the_share(akit_dir, tmp_path):
+    """Trajectory1 as a column map with every IMU row but 10 (0.1 s at t = 200 s) all-zero filler loaded: 10 rows of
+    IMU, and only the DVL outside their span was warned about. An IMU of more than 90 % filler delivered almost
+    nothing: refused naming the file and the share, in a column map and an A-KIT folder alike (the folder was refused
+    for its GT's span)."""
+    from graphnav.missions import load_akit, load_mission
+    from tests.test_generic_csv import _akit_as_column_map
+    filler = _zero_imu_rows([*range(0, 20000), *range(20010, 40000)])
+    data, config = _akit_as_column_map(akit_dir, tmp_path / "map", imu_edit=filler)
+    share = r"39990 of 40000 IMU rows \(99\.98%\) are all-zero \(a logger's filler.*more than 90%"
+    with pytest.warns(RuntimeWarning), pytest.raises(DataError, match=rf"map/imu\.csv: {share}"):
+        load_mission(data, config)
+    folder = _copy_trajectory(akit_dir, tmp_path)
+    _edit_lines(folder / "IMU_trajectory1.csv", filler)
+    with pytest.warns(RuntimeWarning), pytest.raises(DataError, match=rf"IMU_trajectory1\.csv: {share}"):
+        load_akit(folder)
+
+
+def test_a_dvl_without_a_ping_in_the_reference_span_is_refused_naming_its_file(akit_dir, tmp_path):
+    """Trajectory1 with its GT cut to the first 100 s and the DVL's velocity empty over its first 110 s: the DVL's time
+    offset against the GT has no ping to fit, refused naming 'dvl', not the file. It names the DVL's file and the
+    span."""
+    from graphnav.missions import load_akit
+    folder = _copy_trajectory(akit_dir, tmp_path)
+    _edit_lines(folder / "GT_trajectory1.csv", lambda lines: lines[:102])
+    _edit_lines(folder / "DVL_trajectory1.csv", lambda lines: lines[:1] + [
+        line.split(",")[0] + ",,," if float(line.split(",")[0]) < 110.0 else line for line in lines[1:]])
+    with pytest.raises(DataError) as err:
+        _quiet_load(load_akit, folder)
+    assert err.value.source == str(folder / "DVL_trajectory1.csv")
+    assert re.search(r"no DVL ping with a velocity inside the reference span \[0\.000, 99\.\d+\] s", str(err.value))
+
+
 def test_a_dead_accelerometer_beside_a_live_gyro_is_refused_and_counted_a_quantized_resting_gyro_is_not():
     """Three accelerometer values of exactly 0 beside a gyro still reading (the accelerometer dead, not a logger's
     all-zero filler): 5 s of them passed every check without a word (a run that long is no spike) and were integrated

@@ -365,7 +365,8 @@ def _prepare_akit(mission: Mission, meta: dict, facts: dict, imu_axis_signs, gt_
     coarse = coarse if auto else float(dvl_time_offset_s)
     try:
         # against the published GT point the DVL sits at lever arm + IMU position
-        est = estimate_dvl_time_offset(ref, t_dvl + coarse, v_dvl, cfg.dvl.lever_arm_b + imu_position_b)
+        est = estimate_dvl_time_offset(ref, t_dvl + coarse, v_dvl, cfg.dvl.lever_arm_b + imu_position_b,
+                                       source=mission.dvl.source or "dvl")
     except DataError:
         if auto:
             raise

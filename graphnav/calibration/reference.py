@@ -272,7 +272,7 @@ DVL_OFFSET_SEARCH_S = 3.0
 def estimate_dvl_time_offset(reference: Reference, t_dvl_raw: np.ndarray, v_dvl: np.ndarray,
                              lever_arm_b: np.ndarray | None = None,
                              search_s: tuple[float, float] = (-DVL_OFFSET_SEARCH_S, DVL_OFFSET_SEARCH_S),
-                             step_s: float = 0.1) -> OffsetEstimate:
+                             step_s: float = 0.1, source: str = "dvl") -> OffsetEstimate:
     """Offset to add to raw DVL stamps so the DVL velocity matches the reference body velocity.
 
     Model: ``v_dvl(t_raw) = v_b(t_raw + offset) + omega_b(t_raw + offset) x l_b``. With ``lever_arm_b``
@@ -282,15 +282,18 @@ def estimate_dvl_time_offset(reference: Reference, t_dvl_raw: np.ndarray, v_dvl:
     Args:
         reference: the reference trajectory on the IMU clock.
         t_dvl_raw: (M,) raw DVL stamps, s. v_dvl: (M,3) DVL-head body velocity, m/s (NaN rows skipped).
+        source: the DVL's file, which a DataError names (too little overlap, no ping with a velocity in it).
     """
     t_raw = np.asarray(t_dvl_raw, float)
     v_dvl = np.asarray(v_dvl, float)
     # Same pings for every candidate: those whose shifted stamp stays covered over the whole search.
     ok = reference.covers(t_raw + search_s[0]) & reference.covers(t_raw + search_s[1])
     if ok.sum() < 10:
-        raise DataError("too little overlap between DVL and reference to estimate a time offset", "dvl")
+        raise DataError("too little overlap between DVL and reference to estimate a time offset", source)
     if not np.all(np.isfinite(v_dvl[ok]), axis=1).any():        # the fit would divide by zero pings
-        raise DataError("no DVL ping with a velocity inside the reference span to estimate a time offset", "dvl")
+        span = max(reference.t_ref[0], reference.t_imu[0]), min(reference.t_ref[-1], reference.t_imu[-1])
+        raise DataError(f"no DVL ping with a velocity inside the reference span [{span[0]:.3f}, {span[1]:.3f}] s "
+                        f"to estimate a time offset ({int(ok.sum())} ping(s) there, none with a velocity)", source)
 
     def fit(offset):
         r, omega, _, _ = dvl_design(reference, t_raw + offset, v_dvl, ok)

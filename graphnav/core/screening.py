@@ -36,7 +36,10 @@ goes with it. The spans are in seconds and become rows at the
 IMU's own rate (:func:`imu_spike_rows`); under :data:`IMU_SPIKE_MIN_RATE_HZ` the test is off, with a note. A row
 with a NaN or infinite value (an empty cell, ``inf``) is refused too (:func:`not_finite`), before any other
 rule looks at it, and so is a logger's all-zero filler (:func:`imu_filler`: no measurement, the gap it leaves
-bridged as any IMU gap), before the unit, axis and clock checks judge the IMU by its rows (:func:`imu_unmeasured`).
+bridged as any IMU gap), before the unit, axis and clock checks judge the IMU by its rows (:func:`imu_unmeasured`);
+filler whose stamp is zeroed too before the stamps are judged (:func:`zeroed_filler`). A run of rows without a
+measurement, of whatever kind, leaving a gap too long to bridge is the IMU stopping (:func:`check_filler_gaps`), and
+an IMU of more than :data:`MAX_FILLER_SHARE` filler delivered almost nothing (:func:`check_filler_share`).
 
 When each IMU sample was taken (the IMU's rate from its stamps, samples a driver stamped together, a logger's clock
 as coarse as the IMU's period, and restamping them) is decided in :mod:`graphnav.core.imu_timing`: the spike tests
@@ -76,6 +79,10 @@ MAX_STAMP_GAP_S = 86400.0
 CLOCK_JUMP_CONFIRM_S = 1.0
 #: A stream with more than this fraction of its samples refused ends the run with a DataError.
 MAX_REFUSED_FRACTION = 0.5
+#: An IMU file with more than this share of its rows a logger's all-zero filler (:data:`IMU_FILLER`) ends the run with a
+#: DataError: the IMU delivered almost nothing, and the DVL and reference lie mostly outside what it measured. Filler
+#: is no share of bad data (:func:`measurements`): 60 % of a file at its start is an IMU that started late, and read.
+MAX_FILLER_SHARE = 0.9
 #: Neighbours on each side (loaders) or in the past (stream) whose median a sample is compared with.
 SPIKE_NEIGHBOURS = 3
 #: IMU spike test, in seconds (rows: these spans times the IMU's own rate, from its stamps). Half the window whose
@@ -141,7 +148,7 @@ IMU_STALLED = f"stalled (repeats the row before it in every value for {IMU_STALL
 #: Reason of an IMU row with all six values exactly 0 (:func:`imu_filler`): a logger's filler while the IMU delivered
 #: nothing (a real accelerometer reads gravity's specific force), dropped as no measurement, the gap it leaves
 #: bridged as any IMU gap. It is silence, not a bad sample: no share of it makes a stream's data wrong
-#: (:func:`over_refused_limit`).
+#: (:func:`over_refused_limit`), but an IMU almost all silent delivered almost nothing (:func:`check_filler_share`).
 IMU_FILLER = "all-zero IMU row (a logger's filler: zero specific force is impossible under gravity)"
 #: Reason of an IMU row whose three accelerometer values are exactly 0 and the gyro's not all (:func:`imu_unmeasured`):
 #: a dead accelerometer beside a live gyro, no measurement of the specific force (gravity's is never 0). Counted as
@@ -728,25 +735,58 @@ def check_filler_gaps(t: np.ndarray, filler: np.ndarray, source: str, lines: np.
     """DataError (:func:`check_imu_gap`, naming ``source``, the stamps around the gap and, when
     ``lines`` gives it, the file line of the row after it) when a run of rows without a measurement between two other
     rows at stamps ``t`` (N,) s leaves an IMU gap longer than can be bridged: the IMU stopped there as it does in a
-    true gap of that length. ``filler`` (N,) bool: the all-zero rows; ``unmeasured`` (N,) bool: those and any other
-    row refused for holding no measurement (a NaN, :func:`imu_unmeasured`; default ``filler``): filler next to NaN
-    rows leaves one gap. A run at either end of the file only starts the IMU later or ends it earlier; a file of
-    filler only is a DataError too (the IMU delivered nothing)."""
+    true gap of that length, whatever the rows hold. ``filler`` (N,) bool: the all-zero rows; ``unmeasured`` (N,)
+    bool: those and any other row refused for holding no measurement (a NaN, a dead accelerometer,
+    :func:`imu_unmeasured`; default ``filler``): filler next to NaN rows leaves one gap, and so do NaN rows alone. A
+    run at either end of the file only starts the IMU later or ends it earlier; a file of filler only is a DataError
+    too (the IMU delivered nothing)."""
     t, filler = np.asarray(t, float), np.asarray(filler, bool)
-    if len(t) and filler.all():
-        raise DataError(f"all {len(t)} IMU rows are all-zero (a logger's filler: zero specific force is impossible "
-                        "under gravity): the IMU delivered no measurement", source,
-                        None if lines is None else int(lines[0]), None)
+    _check_not_all_filler(filler, source, lines)
     gone = filler if unmeasured is None else np.asarray(unmeasured, bool)
     for a, last in _runs(gone):
         b = last + 1
-        if a > 0 and b < len(t) and filler[a:b].any():
+        if a > 0 and b < len(t):
             zeros = int(filler[a:b].sum())
             left_by = (f"{b - a} all-zero IMU row(s) (a logger's filler)" if zeros == b - a else
                        f"{b - a} IMU row(s) without a measurement ({zeros} all-zero: a logger's filler; the others NaN "
-                       "or infinite)")
+                       "or infinite)" if zeros else
+                       f"{b - a} IMU row(s) without a measurement (NaN or infinite values, or a dead accelerometer)")
             check_imu_gap(float(t[a - 1]), float(t[b]), source, None if lines is None else int(lines[b]), None,
                           what=f"IMU gap left by {left_by}")
+
+
+def _check_not_all_filler(filler: np.ndarray, source: str, lines: np.ndarray | None) -> None:
+    """DataError naming ``source`` and the first of the file ``lines`` when every row of ``filler`` (N,) bool is."""
+    if len(filler) and filler.all():
+        raise DataError(f"all {len(filler)} IMU rows are all-zero (a logger's filler: zero specific force is "
+                        "impossible under gravity): the IMU delivered no measurement", source,
+                        None if lines is None else int(lines[0]), None)
+
+
+def zeroed_filler(t: np.ndarray, values: np.ndarray, source: str = "", lines: np.ndarray | None = None
+                  ) -> np.ndarray:
+    """(N,) bool: the IMU rows written whole as zeros, their stamp ``t`` (N,) (as read, any unit) and their six
+    ``values`` (N,6) (f_b then omega_b, any units): a logger's filler (:data:`IMU_FILLER`) that zeroed the stamp too.
+    Such a stamp is no time: a reader takes these rows out before it checks the stamps' unit and order (they were
+    refused as stamps out of order, with the advice to repair them), and counts them as filler
+    (:func:`refuse_zeroed_filler`); the gap they leave is the stamps' step around them, bridged as any IMU gap. A file
+    of them only is a DataError naming ``source`` and its first line (``lines``)."""
+    values = np.asarray(values, float)
+    zeroed = (np.asarray(t, float) == 0.0) & imu_filler(values[:, :3], values[:, 3:6])
+    _check_not_all_filler(zeroed, source, lines)
+    return zeroed
+
+
+def refuse_zeroed_filler(meta: dict, source: str, lines: np.ndarray) -> None:
+    """Count the IMU rows :func:`zeroed_filler` took out (``lines``: their file lines) as read and refused as a
+    logger's filler (:data:`IMU_FILLER`), with a warning naming ``source`` and the lines; after the reader counted
+    the rest as read (their stamps give the stream's span and rate)."""
+    if not len(lines):
+        return
+    entry = stream_entry(meta, "imu")
+    entry["read"] += len(lines)
+    entry["used"] += len(lines)
+    refuse(meta, "imu", {IMU_FILLER: np.ones(len(lines), bool)}, source, lines=np.asarray(lines))
 
 
 def _note_shocks(kept: list, meta: dict | None, source: str) -> None:
@@ -1096,8 +1136,10 @@ def measurements(entry: dict) -> tuple[int, dict[str, int]]:
 def check_refused_fraction(meta: dict, limit: float = MAX_REFUSED_FRACTION, advice: dict | None = None) -> None:
     """Raise :class:`DataError` naming the stream and its reasons when more than ``limit`` of a stream in
     ``meta["streams"]`` was refused; ``advice`` (stream -> text): what to check for that stream, when known better
-    than the units and sensor ranges."""
+    than the units and sensor ranges. An IMU of more than :data:`MAX_FILLER_SHARE` filler is one too
+    (:func:`check_filler_share`)."""
     for stream, entry in meta.get("streams", {}).items():
+        check_filler_share(entry, stream)
         if over_refused_limit(meta, stream, limit):
             read, by_reason = measurements(entry)
             refused = sum(by_reason.values())
@@ -1114,6 +1156,18 @@ def check_refused_fraction(meta: dict, limit: float = MAX_REFUSED_FRACTION, advi
                             f"{limit:.0%} of the stream; {check}",
                             entry.get("source") or stream,
                             field=column[1] if column else meta.get("stream_fields", {}).get(stream, stream))
+
+
+def check_filler_share(entry: dict, stream: str = "imu") -> None:
+    """DataError naming the file of a stream's record ``entry`` and the share when more than :data:`MAX_FILLER_SHARE`
+    of the rows it read are a logger's all-zero filler (:data:`IMU_FILLER`): 10 measured IMU rows among 40000 of filler
+    loaded, and only the DVL outside their 0.1 s was warned about."""
+    read, filler = entry.get("read", 0), entry.get("refused", {}).get(IMU_FILLER, 0)
+    if read and filler > MAX_FILLER_SHARE * read:
+        raise DataError(f"{filler} of {read} IMU rows ({filler / read:.2%}) are all-zero (a logger's filler: zero "
+                        f"specific force is impossible under gravity), more than {MAX_FILLER_SHARE:.0%}: the IMU "
+                        f"delivered almost no measurement ({read - filler} row(s)); check the IMU and its logger",
+                        entry.get("source") or stream)
 
 
 def refuse_rows(meta: dict, stream: str, masks: dict[str, np.ndarray], source: str, lines: np.ndarray, *arrays

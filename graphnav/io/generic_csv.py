@@ -43,8 +43,10 @@ Files: leading ``#`` comment lines are skipped; the separator is the one of ``,`
 most, or a stream's ``delimiter``; in a ``;`` or tab separated file a number with one decimal comma (``0,25``) is
 read as ``0.25`` (each noted in the stream's notes); a row with more non-empty cells than the header that a decimal
 comma explains (``0,25`` in a comma-separated file is two cells) is a DataError naming its lines, since its values
-would be read under other columns; cells past the header no decimal comma explains (a column a logger appends without
-naming it, a separator inside a note) are not read, and their rows are warned about with their lines and counted.
+would be read under other columns; a quoted one there (``"0,25"``, one cell) is a DataError naming its line with the
+same advice (``"1,250"`` may be 1250 written with a thousands separator); cells past the header no decimal comma
+explains (a column a logger appends without naming it, a separator inside a note) are not read, and their rows are
+warned about with their lines and counted.
 
 DVL: ``beams`` (along-beam velocities of the head) with optional ``valid`` flag columns (non-zero = valid;
 without them every finite beam is valid; RDI's -32768 / -32.768 flags are invalid), or only ``v_b`` (a DVL
@@ -106,11 +108,13 @@ from graphnav.core.screening import (
     not_finite,
     on_resolution_grid,
     refuse_rows,
+    refuse_zeroed_filler,
     stamp_order,
     unit_check_rows,
     warn_no_bottom_lock,
     with_position_spikes,
     zero_pings,
+    zeroed_filler,
 )
 from graphnav.core.streams import add_note, count_read, count_refused, say_doubted
 from graphnav.io.dvl_frame import columns_to_body
@@ -256,11 +260,16 @@ class _Table:
         try:
             return float(cell) if cell else np.nan
         except ValueError:
-            comma = self.delimiter != "," and cell.count(",") == 1 and "." not in cell
+            comma = cell.count(",") == 1 and "." not in cell
             try:
                 value = float(cell.replace(",", ".")) if comma else None
             except ValueError:
                 value = None
+            if value is not None and self.delimiter == ",":
+                # quoted, so one cell: "1,250" may be 1250 with a thousands separator as well as 1.25
+                raise DataError(f"not a number: {cell!r}, a decimal comma in a quoted cell of a ','-separated file "
+                                f"(write decimal points, or separate the cells by ';' or tab)", str(self.path), line,
+                                name) from None
             if value is None:
                 raise DataError(f"not a number: {cell!r}", str(self.path), line, name) from None
             self.decimal_commas += 1
@@ -337,8 +346,9 @@ def _read(root: Path, data_file: Path | None, spec: dict, stream: str, groups: d
           t_imu: np.ndarray | None = None, imu_rate_hz: float | None = None) -> tuple[np.ndarray, dict, Path]:
     """Stamps (s, on the file's clock, increasing) and value groups of one stream (:func:`stamp_order`: rows
     repeating an earlier one exactly, or the row before it in every value under half a step later, dropped; with
-    ``repair`` rows with a repeated stamp too, and sorted; each
-    counted). ``t_imu``: the IMU's stamps (s, the file's clock), which a declared time unit's span is checked
+    ``repair`` rows with a repeated stamp too, and sorted; each counted; an IMU's filler rows whose stamp is zeroed
+    too, :func:`graphnav.core.screening.zeroed_filler`, taken out before the stamps are judged and counted as
+    filler). ``t_imu``: the IMU's stamps (s, the file's clock), which a declared time unit's span is checked
     against (:func:`graphnav.io.units.check_declared_time_span`); ``imu_rate_hz``: the configured IMU rate (Hz),
     which tells an IMU slower than its logger's clock from one losing samples."""
     if "t" not in spec:
@@ -355,6 +365,11 @@ def _read(root: Path, data_file: Path | None, spec: dict, stream: str, groups: d
     for note in table.notes():
         add_note(meta, stream, f"{path}: {note}")
     _say_unnamed_cells(table, lines, stream, meta)
+    zeroed = np.zeros(len(lines), bool)
+    if stream == "imu" and len(flat) == 7:
+        # filler rows whose stamp is zeroed too: no time, taken out before the stamps are judged (counted below)
+        zeroed = zeroed_filler(values[:, 0], values[:, 1:], str(path), lines)
+    zeroed_lines, values, lines = lines[zeroed], values[~zeroed], lines[~zeroed]
     t = values[:, 0]
     bad = np.flatnonzero(~np.isfinite(t))
     if bad.size:
@@ -374,10 +389,11 @@ def _read(root: Path, data_file: Path | None, spec: dict, stream: str, groups: d
         check_stamp_bound(t, float(t_imu[0]), stream, str(path), unit, key, spec["t"], lines, own)
     kept, dropped, t_kept = stamp_order(t, values, lines, str(path), spec["t"], repair, meta, stream,
                                          imu_rate_hz)
-    if dropped:
+    if dropped or zeroed_lines.size:
         _count_read(meta, stream, t, path)       # the rows dropped were read
         for reason, n in dropped.items():
             count_refused(meta, stream, reason, n)
+        refuse_zeroed_filler(meta, str(path), zeroed_lines)
     t, values, lines = t_kept, values[kept], lines[kept]
     out, j = {}, 1
     for key, cols in names.items():

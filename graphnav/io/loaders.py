@@ -138,12 +138,14 @@ from graphnav.core.screening import (
     over_refused_limit,
     refuse,
     refuse_rows,
+    refuse_zeroed_filler,
     stamp_order,
     stamp_jump,
     stamp_outliers,
     unit_check_rows,
     warn_no_bottom_lock,
     with_position_spikes,
+    zeroed_filler,
 )
 from graphnav.core.streams import OWN_CLOCK_RESCALE, add_note, count_read, count_refused
 
@@ -254,7 +256,8 @@ def read_csv(path: str | Path, columns: tuple[str, ...], *, nan_ok: tuple[str, .
     stamps are dropped (first kept) and the rows sorted, with a warning. With ``meta`` (a mission's meta),
     the rows are counted as read for ``stream`` and rows whose stamp is not a time
     (:func:`graphnav.core.screening.stamp_outliers`: NaN or empty (with ``empty_is_nan``), inf, 1e300, a lone
-    stamp a day off) are refused and counted there, before the order check.
+    stamp a day off) are refused and counted there, before the order check, and so are an IMU's (``stream`` "imu")
+    filler rows whose stamp is zeroed too (:func:`graphnav.core.screening.zeroed_filler`), as filler.
     ``with_lines``: return ``(data, lines)``, ``lines`` (N,) the 1-based file line of each row returned.
     ``imu_rate_hz``: an IMU's configured rate (Hz), which tells an IMU slower than its logger's clock from one
     losing samples where the stamps cannot (:func:`graphnav.core.screening.stamp_order`).
@@ -313,7 +316,12 @@ def read_csv(path: str | Path, columns: tuple[str, ...], *, nan_ok: tuple[str, .
     if problems:
         _raise_problems(source, sorted(problems))
     if meta is not None:
-        count_read(meta, stream, data[:, 0], source, shown_rate_hz(stream, data[:, 0]))
+        # an IMU's filler rows whose stamp is zeroed too hold no time: out before the stamps are judged
+        zeroed = (zeroed_filler(data[:, 0], data[:, 1:7], source, line_no) if stream == "imu" and len(columns) == 7
+                  else np.zeros(len(data), bool))
+        count_read(meta, stream, data[~zeroed, 0], source, shown_rate_hz(stream, data[~zeroed, 0]))
+        refuse_zeroed_filler(meta, source, line_no[zeroed])
+        data, line_no = data[~zeroed], line_no[~zeroed]
         bad = stamp_outliers(data[:, 0])
         if bad.any():
             refuse(meta, stream, {"stamp not a time": bad}, source, lines=line_no)
