@@ -307,3 +307,31 @@ def test_rdi_with_bt_appended_to_itself_has_no_corrupt_ensemble(pd0_dir, tmp_pat
     assert log.counts == {**clean.counts, "ensemble written twice (copy left out)": 1722}
     np.testing.assert_array_equal(log.t, clean.t)
     np.testing.assert_array_equal(log.beams, clean.beams, strict=True)
+
+
+def test_bytes_a_logger_wrote_between_two_ensembles_are_skipped_and_both_read(pd0_dir, tmp_path):
+    """winriver01.PD0 with a CR LF after its 101st ensemble and a logger's time tag after its 151st: the bytes are
+    skipped, warned about naming the ensemble they follow and counted, and every ensemble is read as in the clean
+    file. dolfyn, finding no header where an ensemble ends, lost the ensemble before each (2 pings fewer, counted
+    as "not read by dolfyn (last ensemble)", and the pings after named by the wrong ensembles)."""
+    src = pd0_dir / "winriver01.PD0"
+    raw, scan = src.read_bytes(), pd0.scan_pd0(src)
+    parts = [raw[a:b] for a, b in scan.spans]
+    parts[100] += b"\r\n"
+    parts[150] += b"$TIME,12:00:01\r\n"
+    (tmp_path / src.name).write_bytes(b"".join(parts))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        clean = read_dvl(src)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        log = read_dvl(tmp_path / src.name)
+    said = [str(w.message) for w in caught if "between ensembles" in str(w.message)]
+    assert said == [f"{tmp_path / src.name}: 18 byte(s) between ensembles belong to none and are skipped: 2 after "
+                    f"ensemble {scan.numbers[100]} at byte {scan.spans[100][1]} (b'\\r\\n') and 1 more place(s); the "
+                    "ensembles either side are whole (their checksums hold) and read"]
+    assert log.counts == {**clean.counts, pd0.STRAY_BYTES: 18}
+    assert log.where[:101] == clean.where[:101] and log.where[101].startswith(f"ensemble {scan.numbers[101]} ")
+    np.testing.assert_array_equal(log.t, clean.t)
+    np.testing.assert_array_equal(log.beams, clean.beams)
+    np.testing.assert_array_equal(log.v_d, clean.v_d)
