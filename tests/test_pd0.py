@@ -682,7 +682,8 @@ def test_pings_in_bursts_on_a_clock_of_whole_seconds_are_spread_within_their_sec
 def test_a_file_cut_in_its_last_ensemble_with_the_whole_file_appended_has_no_corrupt_ensemble(sim, tmp_path):
     """A copy cut inside its last ensemble with the whole file appended behind it: the cut ensemble is the cut end
     of the first copy, whole in the second, so it is a copy (counted with them, named), not a corrupt ensemble; the
-    pings are the clean file's. It was warned about and counted as a wrong checksum (corrupt)."""
+    pings are the clean file's. It was warned about and counted as a wrong checksum (corrupt), and then the warning
+    called every copy "identical byte for byte to an earlier one", the cut one too."""
     from graphnav.io.pd0 import REPEATED_ENSEMBLE
     mission, root = sim
     raw, n = (root / "dvl.000").read_bytes(), len(mission.dvl.t)
@@ -695,8 +696,9 @@ def test_a_file_cut_in_its_last_ensemble_with_the_whole_file_appended_has_no_cor
         log = read_pd0_log(tmp_path / "dvl.000")
     assert not [w for w in caught if "checksum" in str(w.message)]
     said = [str(w.message) for w in caught if "written twice" in str(w.message)]
-    assert said == [f"{tmp_path / 'dvl.000'}: {n} ensemble(s) written twice (identical byte for byte to an earlier "
-                    f"one: a logger's retry, or a file appended to itself) left out: ensemble {n} (byte "
+    assert said == [f"{tmp_path / 'dvl.000'}: {n} ensemble(s) written twice ({n - 1} identical byte for byte to an "
+                    "earlier one, 1 cut short and the same as far as its bytes go: a logger's retry, or a file "
+                    f"appended to itself) left out: ensemble {n} (byte "
                     f"{(n - 1) * size}), ensembles 1-{n - 1} (bytes {len(cut)}-{len(cut) + (n - 2) * size}); {n} read "
                     f"once (ensemble {n} (byte {(n - 1) * size}) is cut short after {len(cut) - (n - 1) * size} bytes "
                     f"by the next ensemble and read whole from byte {len(cut) + (n - 1) * size}: the cut end of a file "
@@ -774,3 +776,32 @@ def test_a_roll_over_without_the_high_byte_in_a_file_where_other_ensembles_carry
     _assert_sorted_as(log, clean, said, f"{path}: 2 ensemble(s) stored out of time order (ensemble 65535 (byte "
                       f"{6 * len(ens[0])}) is {t[6] - t[5]:.2f} s before ensemble 0 (byte {5 * len(ens[0])}) stored "
                       "ahead of it)")
+
+
+def test_a_file_cut_inside_an_ensemble_with_another_recording_joined_behind_names_the_cut_ensemble(sim, tmp_path):
+    """A recording cut halfway through an ensemble (after its number and clock) with another recording of the
+    instrument (an hour later, numbered from 1) joined behind: the cut ensemble is named as cut short by the next
+    one, counted so and left out, no corrupt ensemble; every whole ensemble of both is read. It was warned about
+    and counted as an ensemble with a wrong checksum (corrupt)."""
+    cut_short_key = "ensemble cut short by the next one (left out)"        # pd0.CUT_SHORT_ENSEMBLE
+    mission, root = sim
+    raw, n = (root / "dvl.000").read_bytes(), len(mission.dvl.t)
+    size, k = len(raw) // n, n // 2
+    write_pd0(tmp_path / "later.000", mission, t_s=mission.dvl.t + 3600.0)
+    path = tmp_path / "dvl.000"
+    path.write_bytes(raw[:k * size + size // 2] + (tmp_path / "later.000").read_bytes())
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        log = read_pd0_log(path)
+    said = [str(w.message) for w in caught]
+    assert not [s for s in said if "checksum (corrupt)" in s]
+    assert [s for s in said if "cut short" in s] == [
+        f"{path}: 1 ensemble(s) cut short by the next one left out: ensemble {k + 1} (byte {k * size}) after "
+        f"{size // 2} of its {size} bytes by the ensemble at byte {k * size + size // 2} (a file cut there with "
+        "another recording joined behind, or bytes a logger lost; its rest is not in the file, so its checksum "
+        f"fails); {k + n} whole ones read"]
+    assert log.counts[cut_short_key] == 1 and "bad checksum (ensemble left out)" not in log.counts
+    assert cut_short_key not in log.refused()
+    clean = _quiet_read(root / "dvl.000")
+    np.testing.assert_array_equal(log.t[:k], clean.t[:k])
+    np.testing.assert_array_equal(log.t[k:] - 3600.0, clean.t[:len(log.t) - k])

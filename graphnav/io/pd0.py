@@ -116,7 +116,7 @@ class Pd0Scan:
     Attributes:
         ensembles: complete ensembles with a valid checksum (an ensemble repeated right after itself once).
         bad_checksum: headers (0x7F 0x7F) followed by a full-length ensemble whose checksum fails (but the cut
-            copies, ``cut_copies``).
+            copies, ``cut_copies``, and the ensembles cut short, ``cut_short``).
         trailing_bytes: bytes after the last complete ensemble (a file cut by a logger).
         beam_matrix: (4,4) beam-to-instrument matrix of block 0x3200 of the first ensemble (rows X, Y, Z,
             error; scaled counts / 10000), or None.
@@ -137,6 +137,10 @@ class Pd0Scan:
         moved: kept ensembles that the time order puts elsewhere than the file does (``spans`` is in time order).
         order_note: where the file's order first runs back in time (for the warning), "" when it never does.
         unplaced: why the ensembles cannot be put in time order (the file is refused), "" when they can.
+        cut_short: ``(number, byte offset, bytes present, length with the checksum, byte offset of the next one)`` of
+            each ensemble cut short inside the file by the next one that is no copy (``cut_copies``) and holds its
+            number and clock: a file cut there with another recording joined behind (or bytes a logger lost), left
+            out; not in ``bad_checksum``. One cut before its number and clock cannot be told from a corrupt one.
         stray: ``(byte offset, bytes, its first 16 bytes)`` of each run of bytes between two ensembles that belongs
             to neither (a CR LF or a time tag a logger wrote between them), skipped.
     """
@@ -158,6 +162,7 @@ class Pd0Scan:
     unplaced: str = ""
     cut_copies: list = dataclasses.field(default_factory=list, repr=False)
     stray: list = dataclasses.field(default_factory=list, repr=False)
+    cut_short: list = dataclasses.field(default_factory=list, repr=False)
 
 
 def _ensembles(raw: bytes, limit: int | None = None):
@@ -213,15 +218,19 @@ def scan_pd0(path: str | Path) -> Pd0Scan:
             bad_end = start + length + 2
             bad.append([start, length + 2, bad_end])
     cut_offset, cut_bytes, cut_length = _cut_ensemble(raw, max(end, bad_end))
-    cut_copies = _cut_copies(raw, [b for b in bad if b[2] - b[0] < b[1]], spans, cut_offset if cut_bytes else None)
+    cut = [b for b in bad if b[2] - b[0] < b[1]]
+    cut_copies = _cut_copies(raw, cut, spans, cut_offset if cut_bytes else None)
+    copied = {start for _, start, _, _ in cut_copies}
+    cut_short = [(_leader(raw[a:stop], 0)[0], a, stop - a, length, stop) for a, length, stop in cut
+                 if a not in copied and _leader(raw[a:stop], 0)[0] >= 0]
     copies = sorted(copies + [(number, start) for number, start, _, _ in cut_copies], key=lambda c: c[1])
     numbers, seconds = (np.array(x) for x in zip(*[_leader(raw, a) for a, _ in spans])) if spans else ([], [])
     order, note, unplaced = _time_order(np.asarray(numbers, int), np.asarray(seconds, float), spans)
     spans = [spans[i] for i in order]
-    return Pd0Scan(len(spans), len(bad) - len(cut_copies), len(raw) - end if spans else len(raw),
+    return Pd0Scan(len(spans), len(bad) - len(cut_copies) - len(cut_short), len(raw) - end if spans else len(raw),
                    _beam_matrix(raw, spans[0][0]) if spans else None, spans, cut_bytes, cut_length, cut_offset,
                    first or 0, len(copies), [int(numbers[i]) for i in order], copies,
-                   int((order != np.arange(len(order))).sum()), note, unplaced, cut_copies, stray)
+                   int((order != np.arange(len(order))).sum()), note, unplaced, cut_copies, stray, cut_short)
 
 
 def _cut_copies(raw: bytes, cut: list, spans: list, end_cut: int | None) -> list:
@@ -634,6 +643,8 @@ def _instrument(ds, scan: Pd0Scan, matrix_source: str) -> dict:
 CUT_ENSEMBLE = "cut ensemble at the end of the file (left out)"
 #: The :attr:`DvlLog.counts` key of the bytes before the first ensemble (skipped; a number of bytes, not pings).
 LEADING_BYTES = "byte(s) before the first ensemble (skipped)"
+#: The :attr:`DvlLog.counts` key of the ensembles cut short inside the file by the next one (left out, not read).
+CUT_SHORT_ENSEMBLE = "ensemble cut short by the next one (left out)"
 #: The :attr:`DvlLog.counts` key of the bytes between two ensembles that belong to neither (skipped; bytes, not pings).
 STRAY_BYTES = "byte(s) between ensembles (skipped)"
 #: The :attr:`DvlLog.counts` key of the ensembles written again, byte for byte (left out, not read).
@@ -652,6 +663,18 @@ def _warn_cut(scan: Pd0Scan, source: str) -> None:
                   f"{scan.cut_offset}): a file cut short; that ensemble is left out, {scan.ensembles} complete "
                   "one(s) read",
                   RuntimeWarning, stacklevel=3)
+
+
+def _warn_cut_short(scan: Pd0Scan, source: str) -> None:
+    """Warn that ensembles are cut short inside the file by the next one (:attr:`Pd0Scan.cut_short`), the first
+    two named: a file cut there with another recording joined behind, not a corrupt ensemble."""
+    said = [f"ensemble {n} (byte {a}) after {k} of its {length} bytes by the ensemble at byte {nxt}"
+            for n, a, k, length, nxt in scan.cut_short[:2]]
+    more = f" and {len(scan.cut_short) - 2} more" if len(scan.cut_short) > 2 else ""
+    warnings.warn(f"{source}: {len(scan.cut_short)} ensemble(s) cut short by the next one left out: "
+                  f"{'; '.join(said)}{more} (a file cut there with another recording joined behind, or bytes a "
+                  f"logger lost; its rest is not in the file, so its checksum fails); {scan.ensembles} whole ones "
+                  "read", RuntimeWarning, stacklevel=4)
 
 
 def _warn_stray(scan: Pd0Scan, source: str) -> None:
@@ -678,7 +701,8 @@ def left_out_notes(counts: dict) -> list[str]:
     """The notes of a DVL stream on the parts of the file that were left out or moved before any ping was read
     (corrupt ensembles, copies, ensembles out of time order, one cut by the end of the file, bytes before the
     first and between two), from :attr:`DvlLog.counts`."""
-    return [f"{counts[key]} {key}" for key in ("bad checksum (ensemble left out)", REPEATED_ENSEMBLE, SORTED_ENSEMBLE,
+    return [f"{counts[key]} {key}" for key in ("bad checksum (ensemble left out)", CUT_SHORT_ENSEMBLE,
+                                               REPEATED_ENSEMBLE, SORTED_ENSEMBLE,
                                                CUT_ENSEMBLE, LEADING_BYTES, STRAY_BYTES) if counts.get(key)]
 
 
@@ -752,9 +776,13 @@ def _dataset(path: Path, scan: Pd0Scan):
         warnings.warn(f"{source}: {scan.bad_checksum} ensemble(s) with a wrong checksum (corrupt) left out; "
                       f"{scan.ensembles} good ones read", RuntimeWarning, stacklevel=3)
     if scan.repeated:
-        warnings.warn(f"{source}: {scan.repeated} ensemble(s) written twice (identical byte for byte to an earlier "
-                      f"one: a logger's retry, or a file appended to itself) left out: {_copies_named(scan.copies)}; "
-                      f"{scan.ensembles} read once" + _cut_copies_named(scan.cut_copies), RuntimeWarning, stacklevel=3)
+        whole = scan.repeated - len(scan.cut_copies)
+        how = ("identical byte for byte to an earlier one" if not scan.cut_copies else
+               f"{whole} identical byte for byte to an earlier one, {len(scan.cut_copies)} cut short and the same as "
+               "far as its bytes go" if whole else "cut short and the same as an earlier one as far as its bytes go")
+        warnings.warn(f"{source}: {scan.repeated} ensemble(s) written twice ({how}: a logger's retry, or a file "
+                      f"appended to itself) left out: {_copies_named(scan.copies)}; {scan.ensembles} read once"
+                      + _cut_copies_named(scan.cut_copies), RuntimeWarning, stacklevel=3)
     if scan.unplaced:
         raise DataError(f"the ensembles cannot be put in time order: {scan.unplaced}", source, field="time")
     if scan.moved:
@@ -768,15 +796,45 @@ def _dataset(path: Path, scan: Pd0Scan):
                         "ensemble only when another follows it, and its ping rate from two)", source)
     if scan.stray:
         _warn_stray(scan, source)
-    if scan.bad_checksum or scan.repeated or scan.moved or scan.stray:
-        ds = _read_good_ensembles(path, scan)
-    else:
-        ds = _read_rdi(path)
+    if scan.cut_short:
+        _warn_cut_short(scan, source)
+    try:
+        if scan.bad_checksum or scan.repeated or scan.moved or scan.stray or scan.cut_short:
+            ds = _read_good_ensembles(path, scan)
+        else:
+            ds = _read_rdi(path)
+    except DataError as exc:
+        change = _instrument_change(path.read_bytes(), scan)
+        if not change:
+            raise
+        raise DataError(f"{change}; dolfyn reads one instrument per file ({exc.message})", source) from None
     if "vel_bt" not in ds:
         raise DataError("no bottom track in the file (PD0 block 0x0600 absent): an ADCP current-profile "
                         "recording without bottom tracking gives no velocity over the seabed", source,
                         field="vel_bt")
     return ds
+
+
+#: Bytes of the fixed leader (block 0x0000) that name the instrument: firmware version and revision, number of beams,
+#: serial number (RDI P/N 951-6079-00); the rest (cells, orientation bits, ...) may change within one recording.
+INSTRUMENT_BYTES = (2, 3, 8, 54, 55, 56, 57)
+
+
+def _instrument_change(raw: bytes, scan: Pd0Scan) -> str:
+    """Where the instrument (firmware, beams, serial: :data:`INSTRUMENT_BYTES` of the fixed leader) first changes
+    between ensembles next in the file, said with what a user can do; "" when it never does: recordings of two
+    instruments joined in one file, which dolfyn cannot read."""
+    def instrument(start: int) -> bytes:
+        offsets = struct.unpack_from(f"<{raw[start + 5]}H", raw, start + 6)
+        fixed = next((start + o for o in offsets if raw[start + o:start + o + 2] == b"\x00\x00"), None)
+        return b"" if fixed is None else bytes(raw[fixed + i] for i in INSTRUMENT_BYTES if fixed + i < len(raw))
+    in_file = sorted(zip((a for a, _ in scan.spans), scan.numbers))
+    for (a, n), (b, m) in zip(in_file, in_file[1:]):
+        if instrument(a) != instrument(b):
+            return (f"the instrument (firmware, beams or serial number of the fixed leader) changes from ensemble {n} "
+                    f"(byte {a}) to ensemble {m} (byte {b}): recordings of two instruments joined in one file; load "
+                    f"each from a file of its own (the bytes before {b} and from {b} on)")
+    return ""
 
 
 def _copies_named(copies: list) -> str:
@@ -810,7 +868,8 @@ def read_pd0_log(path: str | Path, config: SensorConfig | None = None) -> DvlLog
     ``no bottom lock``, ``fewer than 3 beams`` (beam files), ``3-beam solution`` (rotated files: velocity
     without beams), ``not read by dolfyn (last ensemble)``, ``flagged beams`` (beam values, beam files),
     ``bad pressure word`` and ``depth out of range`` (pressure readings), ``bad checksum (ensemble left out)``
-    (corrupt ensembles, not part of ``read``), :data:`REPEATED_ENSEMBLE` (copies left out, not part of ``read``),
+    (corrupt ensembles, not part of ``read``), :data:`CUT_SHORT_ENSEMBLE` (cut short by the next ensemble, not part
+    of ``read``), :data:`REPEATED_ENSEMBLE` (copies left out, not part of ``read``),
     :data:`SORTED_ENSEMBLE` (ensembles moved to their time, read),
     :data:`CUT_ENSEMBLE` (1 when the file ends inside an ensemble, not part of ``read``), :data:`LEADING_BYTES`
     (bytes before the first ensemble, skipped), :data:`STRAY_BYTES` (bytes between two, skipped). ``instrument``
@@ -849,6 +908,8 @@ def read_pd0_log(path: str | Path, config: SensorConfig | None = None) -> DvlLog
         counts[REPEATED_ENSEMBLE] = scan.repeated
     if scan.moved:
         counts[SORTED_ENSEMBLE] = scan.moved
+    if scan.cut_short:
+        counts[CUT_SHORT_ENSEMBLE] = len(scan.cut_short)
     if scan.stray:
         counts[STRAY_BYTES] = sum(n for _, n, _ in scan.stray)
     if scan.leading_bytes:
