@@ -1087,7 +1087,10 @@ def with_spread_times(log: DvlLog) -> tuple[DvlLog, list[tuple[str, str, int]]]:
     """``log`` with the pings that share a time spread (:func:`spread_shared_times`), and what to say about them:
     ``(note, doubted reason, pings)`` for the pings of a clock that stood still (:data:`STALLED_TIME`) and for the
     others moved (:data:`SPREAD_TIME`), each when there are any. A mission's DVL stream and a dead reckoning need
-    one stamp per ping."""
+    one stamp per ping. A log whose stamps run back (a CSV out of time order) is left as it is: what is shared there
+    cannot be told."""
+    if np.any(np.diff(np.asarray(log.t, float)) < 0):
+        return log, []
     t, moved = spread_shared_times(log.t)
     stalled = stalled_clock(log.t) & moved
     where = log.where or [f"ping {k}" for k in range(len(t))]
