@@ -101,6 +101,18 @@ def test_depth_sensor_sets_the_vertical_and_nothing_to_integrate_is_an_error():
         dvl_dead_reckoning(one)
 
 
+def test_dead_reckoning_of_pings_out_of_time_order_says_what_to_do():
+    """A log whose stamps mostly run back (a CSV written newest first) is refused saying what to do with it; it
+    said only "ping stamps do not increase"."""
+    log, _ = circle_log()
+    backwards = DvlLog(t=log.t[::-1].copy(), v_d=log.v_d, v_d_valid=log.v_d_valid, frame="instrument",
+                       attitude_deg=log.attitude_deg, v_n=log.v_n, source="backwards")
+    with pytest.raises(DataError, match=r"field 't': ping stamps do not increase \(median step -1 s between the 201 "
+                                        r"pings with a velocity\): put the pings in time order, each with a time of "
+                                        "its own"):
+        dvl_dead_reckoning(backwards)
+
+
 # --- describe: simulated missions in the formats graphnav reads ----------------------------------------------
 @pytest.fixture(scope="module")
 def sim():

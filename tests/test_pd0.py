@@ -316,6 +316,30 @@ def test_smooth_of_a_dvl_file_alone_names_the_method_and_the_options_it_ignores(
     assert said[1] in [str(w.message) for w in caught]
 
 
+def test_smooth_of_a_dvl_file_alone_spreads_ensembles_that_share_a_time_as_beside_an_imu(sim, tmp_path):
+    """A PD0 file whose clock (with hundredths) repeats each time for three pings, dead-reckoned alone: the pings are
+    spread within the clock's tick as beside an IMU (here onto the 1 s they were taken at), warned about and counted
+    as doubted, and the track is the clean file's. It was refused: "ping stamps do not increase", no advice."""
+    spread_key = "ensemble time shared with the ping before (stamp spread after it)"       # pd0.SPREAD_TIME
+    mission, _ = sim
+    t = mission.dvl.t
+    write_pd0(tmp_path / "clean.000", mission, t_s=t + 0.37)
+    write_pd0(tmp_path / "dvl.000", mission, t_s=3.0 * np.floor(t / 3.0) + 0.37)
+    tracks = {}
+    for name in ("clean", "dvl"):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            assert cli.main(["smooth", "--data", str(tmp_path / f"{name}.000"), "--no-plots",
+                             "--out", str(tmp_path / name)]) == 0
+        tracks[name] = np.genfromtxt(tmp_path / name / "trajectory.csv", delimiter=",", skip_header=1)[:, :7]
+    np.testing.assert_allclose(tracks["dvl"], tracks["clean"], rtol=0, atol=1e-6)
+    summary = json.loads((tmp_path / "dvl" / "summary.json").read_text())
+    n = len(tracks["dvl"])
+    assert summary["streams"]["dvl"]["doubted"] == {spread_key: n - (n + 2) // 3}
+    said = [s for s in summary["warnings"] if "share their ensemble's time" in s]
+    assert len(said) == 1 and said[0].split(": ", 1)[1] in summary["streams"]["dvl"]["notes"]
+
+
 def test_bytes_before_the_first_ensemble_are_warned_about_and_counted(sim, tmp_path):
     """A PD0 file that does not start with an ensemble (a logger that started mid-ensemble, a preamble) reads the
     same pings as the file without those bytes, and says so: a warning naming the file, the bytes and the first
@@ -658,7 +682,8 @@ def test_pings_in_bursts_on_a_clock_of_whole_seconds_are_spread_within_their_sec
 def test_a_file_cut_in_its_last_ensemble_with_the_whole_file_appended_has_no_corrupt_ensemble(sim, tmp_path):
     """A copy cut inside its last ensemble with the whole file appended behind it: the cut ensemble is the cut end
     of the first copy, whole in the second, so it is a copy (counted with them, named), not a corrupt ensemble; the
-    pings are the clean file's. It was warned about and counted as a wrong checksum (corrupt)."""
+    pings are the clean file's. It was warned about and counted as a wrong checksum (corrupt), and then the warning
+    called every copy "identical byte for byte to an earlier one", the cut one too."""
     from graphnav.io.pd0 import REPEATED_ENSEMBLE
     mission, root = sim
     raw, n = (root / "dvl.000").read_bytes(), len(mission.dvl.t)
@@ -671,8 +696,9 @@ def test_a_file_cut_in_its_last_ensemble_with_the_whole_file_appended_has_no_cor
         log = read_pd0_log(tmp_path / "dvl.000")
     assert not [w for w in caught if "checksum" in str(w.message)]
     said = [str(w.message) for w in caught if "written twice" in str(w.message)]
-    assert said == [f"{tmp_path / 'dvl.000'}: {n} ensemble(s) written twice (identical byte for byte to an earlier "
-                    f"one: a logger's retry, or a file appended to itself) left out: ensemble {n} (byte "
+    assert said == [f"{tmp_path / 'dvl.000'}: {n} ensemble(s) written twice ({n - 1} identical byte for byte to an "
+                    "earlier one, 1 cut short and the same as far as its bytes go: a logger's retry, or a file "
+                    f"appended to itself) left out: ensemble {n} (byte "
                     f"{(n - 1) * size}), ensembles 1-{n - 1} (bytes {len(cut)}-{len(cut) + (n - 2) * size}); {n} read "
                     f"once (ensemble {n} (byte {(n - 1) * size}) is cut short after {len(cut) - (n - 1) * size} bytes "
                     f"by the next ensemble and read whole from byte {len(cut) + (n - 1) * size}: the cut end of a file "
@@ -706,3 +732,76 @@ def test_an_ensemble_cut_before_its_number_and_clock_stays_corrupt_not_a_copy(si
     assert REPEATED_ENSEMBLE not in log.counts
     assert log.counts["bad checksum (ensemble left out)"] == 1
     np.testing.assert_array_equal(log.t, np.delete(clean.t, k))
+
+
+def test_a_dvl_clock_that_stands_still_then_jumps_has_its_pings_spread_up_to_the_jump(sim, tmp_path):
+    """A clock with hundredths that stands still for 5 s (pings 11-15 of a 1 Hz DVL stamped with the 11th's time) and
+    then jumps back to the right time: those pings are spread evenly up to the jump, onto the times they were taken
+    at, warned about as a clock that stood still and counted as doubted. They were squeezed into the clock's 1 s
+    tick (0.2 s apart, up to 3.2 s early) and called a clock slower than the pings."""
+    from graphnav.io.pd0 import read_pd0
+    stalled_key = "DVL clock stood still (stamp spread up to its next time)"        # pd0.STALLED_TIME
+    mission, _ = sim
+    t = mission.dvl.t
+    stalled = (t >= t[10]) & (t < t[10] + 5.0)
+    path = tmp_path / "dvl.000"
+    write_pd0(path, mission, t_s=np.where(stalled, t[10], t) + 0.37)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        dvl, _, meta = read_pd0(path)
+    np.testing.assert_allclose(dvl.t - START.timestamp(), t[:len(dvl.t)] + 0.37, rtol=0, atol=1e-6)
+    assert meta["streams"]["dvl"]["doubted"] == {stalled_key: 4}
+    said = [str(w.message) for w in caught if "stood still" in str(w.message)]
+    size = len(_ensembles_of(path)[0])
+    assert said == [f"{path}: the DVL's clock stood still: 5 pings from ensemble 11 (byte {10 * size}) share its time "
+                    "2024-05-01 12:00:10.37, then jumped 5.00 s, while elsewhere it gives each ping a time of its "
+                    "own: spread evenly up to the next time at the ping period at most, at most 4.000 s after the "
+                    "time recorded; their times are a guess"]
+
+
+def test_a_roll_over_without_the_high_byte_in_a_file_where_other_ensembles_carry_it_is_sorted(sim, tmp_path):
+    """Ensemble numbers rolling over 65535 -> 0 without the high byte while later ensembles of the file carry it
+    (65560 on written with byte 11 = 1), with the ensembles numbered 65535 and 0 swapped: put back in time order,
+    warned and counted, the pings of the clean file. Any number above 65535 switched the roll-over off, and the swap
+    was refused with the advice for a clock set back mid-file (cut the file, a clock offset for each part)."""
+    mission, _ = sim
+    t, n = mission.dvl.t, len(mission.dvl.t)
+    full = 65530 + np.arange(n)                                    # 65535 is the 6th ensemble, 0 the 7th
+    numbers = np.where((full > 0xFFFF) & (full < 65560), full & 0xFFFF, full)
+    path = tmp_path / "dvl.000"
+    path.write_bytes(_numbered(mission, numbers))
+    clean = _quiet_read(path)
+    ens = _ensembles_of(path)
+    log, said = _read_with_two_swapped(path, ens, 5)
+    _assert_sorted_as(log, clean, said, f"{path}: 2 ensemble(s) stored out of time order (ensemble 65535 (byte "
+                      f"{6 * len(ens[0])}) is {t[6] - t[5]:.2f} s before ensemble 0 (byte {5 * len(ens[0])}) stored "
+                      "ahead of it)")
+
+
+def test_a_file_cut_inside_an_ensemble_with_another_recording_joined_behind_names_the_cut_ensemble(sim, tmp_path):
+    """A recording cut halfway through an ensemble (after its number and clock) with another recording of the
+    instrument (an hour later, numbered from 1) joined behind: the cut ensemble is named as cut short by the next
+    one, counted so and left out, no corrupt ensemble; every whole ensemble of both is read. It was warned about
+    and counted as an ensemble with a wrong checksum (corrupt)."""
+    cut_short_key = "ensemble cut short by the next one (left out)"        # pd0.CUT_SHORT_ENSEMBLE
+    mission, root = sim
+    raw, n = (root / "dvl.000").read_bytes(), len(mission.dvl.t)
+    size, k = len(raw) // n, n // 2
+    write_pd0(tmp_path / "later.000", mission, t_s=mission.dvl.t + 3600.0)
+    path = tmp_path / "dvl.000"
+    path.write_bytes(raw[:k * size + size // 2] + (tmp_path / "later.000").read_bytes())
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        log = read_pd0_log(path)
+    said = [str(w.message) for w in caught]
+    assert not [s for s in said if "checksum (corrupt)" in s]
+    assert [s for s in said if "cut short" in s] == [
+        f"{path}: 1 ensemble(s) cut short by the next one left out: ensemble {k + 1} (byte {k * size}) after "
+        f"{size // 2} of its {size} bytes by the ensemble at byte {k * size + size // 2} (a file cut there with "
+        "another recording joined behind, or bytes a logger lost; its rest is not in the file, so its checksum "
+        f"fails); {k + n} whole ones read"]
+    assert log.counts[cut_short_key] == 1 and "bad checksum (ensemble left out)" not in log.counts
+    assert cut_short_key not in log.refused()
+    clean = _quiet_read(root / "dvl.000")
+    np.testing.assert_array_equal(log.t[:k], clean.t[:k])
+    np.testing.assert_array_equal(log.t[k:] - 3600.0, clean.t[:len(log.t) - k])

@@ -65,6 +65,14 @@ def _read(path):
         return read_dvl(path)
 
 
+def _read_warned(path):
+    """``read_dvl(path)`` and the messages of the warnings it gave."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        log = read_dvl(path)
+    return log, [str(w.message) for w in caught]
+
+
 @pytest.mark.parametrize("name", sorted(BOTTOM_TRACK))
 def test_pings_read_and_valid_match_dolfyn(pd0_dir, name):
     log = _read(pd0_dir / name)
@@ -307,3 +315,49 @@ def test_rdi_with_bt_appended_to_itself_has_no_corrupt_ensemble(pd0_dir, tmp_pat
     assert log.counts == {**clean.counts, "ensemble written twice (copy left out)": 1722}
     np.testing.assert_array_equal(log.t, clean.t)
     np.testing.assert_array_equal(log.beams, clean.beams, strict=True)
+
+
+def test_bytes_a_logger_wrote_between_two_ensembles_are_skipped_and_both_read(pd0_dir, tmp_path):
+    """winriver01.PD0 with a CR LF after its 101st ensemble and a logger's time tag after its 151st: the bytes are
+    skipped, warned about naming the ensemble they follow and counted, and every ensemble is read as in the clean
+    file. dolfyn, finding no header where an ensemble ends, lost the ensemble before each (2 pings fewer, counted
+    as "not read by dolfyn (last ensemble)", and the pings after named by the wrong ensembles)."""
+    src = pd0_dir / "winriver01.PD0"
+    raw, scan = src.read_bytes(), pd0.scan_pd0(src)
+    parts = [raw[a:b] for a, b in scan.spans]
+    parts[100] += b"\r\n"
+    parts[150] += b"$TIME,12:00:01\r\n"
+    (tmp_path / src.name).write_bytes(b"".join(parts))
+    clean = _read(src)
+    log, said = _read_warned(tmp_path / src.name)
+    said = [s for s in said if "between ensembles" in s]
+    assert said == [f"{tmp_path / src.name}: 18 byte(s) between ensembles belong to none and are skipped: 2 after "
+                    f"ensemble {scan.numbers[100]} at byte {scan.spans[100][1]} (b'\\r\\n') and 1 more place(s); the "
+                    "ensembles either side are whole (their checksums hold) and read"]
+    assert log.counts == {**clean.counts, pd0.STRAY_BYTES: 18}
+    assert log.where[:101] == clean.where[:101] and log.where[101].startswith(f"ensemble {scan.numbers[101]} ")
+    np.testing.assert_array_equal(log.t, clean.t)
+    np.testing.assert_array_equal(log.beams, clean.beams)
+    np.testing.assert_array_equal(log.v_d, clean.v_d)
+
+
+def test_two_instruments_joined_after_a_cut_are_refused_naming_where_the_second_begins(pd0_dir, tmp_path):
+    """winriver01.PD0 cut halfway through its 201st ensemble with RiverPro_test01.PD0 joined behind: the cut ensemble
+    is named as cut short by the next one, not corrupt, and the file is refused naming the ensembles where the
+    instrument changes and the byte to cut at. dolfyn's "IndexError: arrays used as indices must be of integer (or
+    boolean) type" was all a user got."""
+    first, second = pd0_dir / "winriver01.PD0", pd0_dir / "RiverPro_test01.PD0"
+    spans = pd0.scan_pd0(first).spans
+    a, b = spans[200]
+    joined = first.read_bytes()[:a + 1500]
+    (tmp_path / "joined.PD0").write_bytes(joined + second.read_bytes())
+    with pytest.warns(RuntimeWarning) as caught:
+        with pytest.raises(DataError, match=re.escape(
+                f"the instrument (firmware, beams or serial number of the fixed leader) changes from ensemble 423 "
+                f"(byte {spans[199][0]}) to ensemble 398 (byte {len(joined)}): recordings of two instruments joined "
+                f"in one file; load each from a file of its own (the bytes before {len(joined)} and from "
+                f"{len(joined)} on); dolfyn reads one instrument per file (cannot read as PD0: ")):
+            read_dvl(tmp_path / "joined.PD0")
+    said = [str(w.message) for w in caught]
+    assert not [s for s in said if "corrupt" in s]
+    assert [s for s in said if f"ensemble 424 (byte {a}) after 1500 of its {b - a} bytes" in s]

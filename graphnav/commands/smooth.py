@@ -197,6 +197,7 @@ def smooth_dvl_only(args, out: Path, final=str) -> dict:
     ``"method": "DVL-DR"``, the streams and the warning that this is not the IMU/DVL estimator)."""
     import warnings
 
+    from graphnav.core.streams import say_doubted
     from graphnav.estimators.dead_reckoning import dvl_dead_reckoning
     from graphnav.io.dvl_files import read_dvl
     from graphnav.io.inspect import describe_dvl_log
@@ -207,9 +208,11 @@ def smooth_dvl_only(args, out: Path, final=str) -> dict:
         write_trajectory_csv,
         write_tum,
     )
+    from graphnav.io.pd0 import with_spread_times
     data = Path(args.data)
     start = time.perf_counter()
     log = read_dvl(data, _config(args))         # a file graphnav cannot use stops here, with its reason
+    log, spread = with_spread_times(log)        # one stamp per ping, as beside an IMU
     message = DVL_ONLY_WARNING.format(data=data, method=args.method, name=data.name)
     warnings.warn(message, RuntimeWarning, stacklevel=2)
     ignored = [f"--{k.replace('_', '-')} {v}" for k, v, default in (
@@ -235,6 +238,9 @@ def smooth_dvl_only(args, out: Path, final=str) -> dict:
         files["trajectory_bag"] = str(write_odometry_bag(sol, bag, storage=args.bag))
     duration = float(sol.t[-1] - sol.t[0])
     streams = describe_dvl_log(log)["streams"]
+    for text, reason, n in spread:
+        say_doubted({"streams": streams}, "dvl", log.source, text, reason, n)
+        said.append(f"{log.source}: {text}")
     gaps = sol.info["gaps"]
     if gaps:
         streams["dvl"]["notes"].append(f"{len(gaps)} gap(s) bridged by dead reckoning (longest "

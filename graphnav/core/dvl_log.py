@@ -17,7 +17,8 @@ COUNT_NOTES = ("read", "valid", "beams recovered", "ensembles in file", "bad pre
                "flagged beams", "3-beam solution", "bad checksum (ensemble left out)",
                "ensemble written twice (copy left out)", "ensemble stored out of time order (sorted)",
                "cut ensemble at the end of the file (left out)",
-               "byte(s) before the first ensemble (skipped)")
+               "byte(s) before the first ensemble (skipped)", "byte(s) between ensembles (skipped)",
+               "ensemble cut short by the next one (left out)")
 
 
 @dataclass

@@ -103,7 +103,8 @@ def dvl_dead_reckoning(log: DvlLog, *, gap_periods: float = GAP_PERIODS,
     t_ok, v_ok = t[ok], v_n[ok]
     period = float(np.median(np.diff(t_ok)))
     if not period > 0:
-        raise DataError("ping stamps do not increase", log.source, field="t")
+        raise DataError(f"ping stamps do not increase (median step {period:g} s between the {len(t_ok)} pings with a "
+                        "velocity): put the pings in time order, each with a time of its own", log.source, field="t")
     tt, gaps = _epochs(t_ok, t, period, gap_periods)
     v = np.column_stack([np.interp(tt, t_ok, v_ok[:, j]) for j in range(3)])
     dt = np.diff(tt)[:, None]

@@ -36,16 +36,20 @@ then equals RDI's bottom-track beam velocity as recorded, and a convex head has 
   follows it (the end of a file may be cut), so a complete file's last ensemble is not read; it is counted. A
   file that ends inside an ensemble (a copy or download cut short) has that ensemble left out, warned about and
   counted (``counts``, and a note of the DVL stream), as a corrupt ensemble (wrong checksum) is, and so are
-  bytes before the first ensemble (a logger that started mid-ensemble or wrote a preamble) and an ensemble written
+  bytes before the first ensemble (a logger that started mid-ensemble or wrote a preamble), bytes between two whole
+  ensembles (a CR LF or time tag a logger wrote; both ensembles are read) and an ensemble written
   again byte for byte anywhere after itself (a logger's retry, a file appended to itself: the same ping twice,
   which dolfyn cannot read or reads as time running back); an ensemble cut short by the next one whose bytes are
   those of an ensemble read whole (or of the one the file ends in) is such a copy too: the cut end of a file with a
   copy of it joined behind, not a corrupt ensemble.
 * ensembles stored out of time order are put in order by their own clock (the variable leader's RTC) when their
-  ensemble numbers agree (counted on across a roll-over 65535 -> 0 without the high byte), warned about and
+  ensemble numbers agree (counted on across a roll-over 65535 -> 0 without the high byte, also where other
+  ensembles of the file carry it), warned about and
   counted; ensembles that share a time (a clock of 1 s resolution on an instrument pinging faster) are ordered by
   their numbers and keep that time (a mission's DVL stream, :func:`read_pd0`, spreads them within the clock's
-  tick: :func:`spread_shared_times`, warned and counted as doubted); a file whose clock and numbers disagree (a clock
+  tick: :func:`spread_shared_times`, warned and counted as doubted; a clock that stood still for several pings on
+  a clock that otherwise gives each ping its own time, then jumped, has them spread up to the jump, said so; a DVL
+  file dead-reckoned alone is spread alike); a file whose clock and numbers disagree (a clock
   set back mid-file, two different ensembles with one time and one number, two recordings overlapping in time) is
   refused naming the ensembles (:func:`_time_order` says why), and so is one of fewer than
   :data:`MIN_ENSEMBLES` ensembles, which dolfyn cannot read.
@@ -112,7 +116,7 @@ class Pd0Scan:
     Attributes:
         ensembles: complete ensembles with a valid checksum (an ensemble repeated right after itself once).
         bad_checksum: headers (0x7F 0x7F) followed by a full-length ensemble whose checksum fails (but the cut
-            copies, ``cut_copies``).
+            copies, ``cut_copies``, and the ensembles cut short, ``cut_short``).
         trailing_bytes: bytes after the last complete ensemble (a file cut by a logger).
         beam_matrix: (4,4) beam-to-instrument matrix of block 0x3200 of the first ensemble (rows X, Y, Z,
             error; scaled counts / 10000), or None.
@@ -133,6 +137,12 @@ class Pd0Scan:
         moved: kept ensembles that the time order puts elsewhere than the file does (``spans`` is in time order).
         order_note: where the file's order first runs back in time (for the warning), "" when it never does.
         unplaced: why the ensembles cannot be put in time order (the file is refused), "" when they can.
+        cut_short: ``(number, byte offset, bytes present, length with the checksum, byte offset of the next one)`` of
+            each ensemble cut short inside the file by the next one that is no copy (``cut_copies``) and holds its
+            number and clock: a file cut there with another recording joined behind (or bytes a logger lost), left
+            out; not in ``bad_checksum``. One cut before its number and clock cannot be told from a corrupt one.
+        stray: ``(byte offset, bytes, its first 16 bytes)`` of each run of bytes between two ensembles that belongs
+            to neither (a CR LF or a time tag a logger wrote between them), skipped.
     """
 
     ensembles: int
@@ -151,6 +161,8 @@ class Pd0Scan:
     order_note: str = ""
     unplaced: str = ""
     cut_copies: list = dataclasses.field(default_factory=list, repr=False)
+    stray: list = dataclasses.field(default_factory=list, repr=False)
+    cut_short: list = dataclasses.field(default_factory=list, repr=False)
 
 
 def _ensembles(raw: bytes, limit: int | None = None):
@@ -186,12 +198,15 @@ def scan_pd0(path: str | Path) -> Pd0Scan:
     of an ensemble (byte for byte the same as an earlier one, anywhere in the file) and put the rest in time order
     (:func:`_time_order`)."""
     raw = Path(path).read_bytes()
-    spans, bad, bad_end, first, copies, end, seen = [], [], 0, None, [], 0, set()
+    spans, bad, bad_end, first, copies, end, seen, stray = [], [], 0, None, [], 0, set(), []
     for start, length, ok in _ensembles(raw):
         first = start if first is None else first
         if ok:
             if start < bad_end:        # a whole ensemble inside one that fails: that one was cut short here
                 bad[-1][2] = bad_end = start
+            elif start > max(end, bad_end) and (end or bad_end):      # bytes between two ensembles
+                at = max(end, bad_end)
+                stray.append((at, start - at, raw[at:min(start, at + 16)]))
             end = start + length + 2
             digest = hashlib.blake2b(memoryview(raw)[start:end], digest_size=16).digest()
             if digest in seen:
@@ -203,15 +218,19 @@ def scan_pd0(path: str | Path) -> Pd0Scan:
             bad_end = start + length + 2
             bad.append([start, length + 2, bad_end])
     cut_offset, cut_bytes, cut_length = _cut_ensemble(raw, max(end, bad_end))
-    cut_copies = _cut_copies(raw, [b for b in bad if b[2] - b[0] < b[1]], spans, cut_offset if cut_bytes else None)
+    cut = [b for b in bad if b[2] - b[0] < b[1]]
+    cut_copies = _cut_copies(raw, cut, spans, cut_offset if cut_bytes else None)
+    copied = {start for _, start, _, _ in cut_copies}
+    cut_short = [(_leader(raw[a:stop], 0)[0], a, stop - a, length, stop) for a, length, stop in cut
+                 if a not in copied and _leader(raw[a:stop], 0)[0] >= 0]
     copies = sorted(copies + [(number, start) for number, start, _, _ in cut_copies], key=lambda c: c[1])
     numbers, seconds = (np.array(x) for x in zip(*[_leader(raw, a) for a, _ in spans])) if spans else ([], [])
     order, note, unplaced = _time_order(np.asarray(numbers, int), np.asarray(seconds, float), spans)
     spans = [spans[i] for i in order]
-    return Pd0Scan(len(spans), len(bad) - len(cut_copies), len(raw) - end if spans else len(raw),
+    return Pd0Scan(len(spans), len(bad) - len(cut_copies) - len(cut_short), len(raw) - end if spans else len(raw),
                    _beam_matrix(raw, spans[0][0]) if spans else None, spans, cut_bytes, cut_length, cut_offset,
                    first or 0, len(copies), [int(numbers[i]) for i in order], copies,
-                   int((order != np.arange(len(order))).sum()), note, unplaced, cut_copies)
+                   int((order != np.arange(len(order))).sum()), note, unplaced, cut_copies, stray, cut_short)
 
 
 def _cut_copies(raw: bytes, cut: list, spans: list, end_cut: int | None) -> list:
@@ -319,15 +338,17 @@ def _time_order(numbers: np.ndarray, t: np.ndarray, spans: list) -> tuple[np.nda
 
 def _rolled_over(numbers: np.ndarray, t: np.ndarray) -> np.ndarray:
     """The ensemble numbers counted on across a roll-over without the high byte (65535 -> 0, an instrument that
-    leaves the variable leader's byte 11 at 0), in the order of the clock ``t`` (Unix s): a step of more than half of
-    65536 between ensembles next in time is the low word wrapping, not a restart, so sorting by number and the
-    agreement of numbers with the clock see 65535, 65536. Numbers as they are when any uses the high byte (they roll
-    over to 65536 by themselves) or has no variable leader (-1)."""
-    if not len(numbers) or numbers.min() < 0 or numbers.max() > 0xFFFF:
+    leaves the variable leader's byte 11 at 0), in the order of the clock ``t`` (Unix s): a step of the low word of
+    more than half of 65536 between ensembles next in time whose high byte stays the same is the low word wrapping,
+    not a restart, so sorting by number and the agreement of numbers with the clock see 65535, 65536. That holds in a
+    file where other ensembles carry the high byte too (a step where it changes, 65535 -> 65536 written with it, is
+    taken as it is). Numbers as they are when any has no variable leader (-1)."""
+    if not len(numbers) or numbers.min() < 0:
         return numbers
     by_time = np.argsort(np.where(np.isfinite(t), t, np.inf), kind="stable")
-    step = np.diff(numbers[by_time])
-    wraps = np.where(np.abs(step) > 0x8000, -np.sign(step), 0)
+    step = np.diff(numbers[by_time] & 0xFFFF)
+    same_high = np.diff(numbers[by_time] >> 16) == 0
+    wraps = np.where(same_high & (np.abs(step) > 0x8000), -np.sign(step), 0)
     unrolled = numbers.copy()
     unrolled[by_time[1:]] += 0x10000 * np.cumsum(wraps)
     return unrolled
@@ -622,6 +643,10 @@ def _instrument(ds, scan: Pd0Scan, matrix_source: str) -> dict:
 CUT_ENSEMBLE = "cut ensemble at the end of the file (left out)"
 #: The :attr:`DvlLog.counts` key of the bytes before the first ensemble (skipped; a number of bytes, not pings).
 LEADING_BYTES = "byte(s) before the first ensemble (skipped)"
+#: The :attr:`DvlLog.counts` key of the ensembles cut short inside the file by the next one (left out, not read).
+CUT_SHORT_ENSEMBLE = "ensemble cut short by the next one (left out)"
+#: The :attr:`DvlLog.counts` key of the bytes between two ensembles that belong to neither (skipped; bytes, not pings).
+STRAY_BYTES = "byte(s) between ensembles (skipped)"
 #: The :attr:`DvlLog.counts` key of the ensembles written again, byte for byte (left out, not read).
 REPEATED_ENSEMBLE = "ensemble written twice (copy left out)"
 #: The :attr:`DvlLog.counts` key of the ensembles stored out of time order (moved to their time, read).
@@ -640,6 +665,29 @@ def _warn_cut(scan: Pd0Scan, source: str) -> None:
                   RuntimeWarning, stacklevel=3)
 
 
+def _warn_cut_short(scan: Pd0Scan, source: str) -> None:
+    """Warn that ensembles are cut short inside the file by the next one (:attr:`Pd0Scan.cut_short`), the first
+    two named: a file cut there with another recording joined behind, not a corrupt ensemble."""
+    said = [f"ensemble {n} (byte {a}) after {k} of its {length} bytes by the ensemble at byte {nxt}"
+            for n, a, k, length, nxt in scan.cut_short[:2]]
+    more = f" and {len(scan.cut_short) - 2} more" if len(scan.cut_short) > 2 else ""
+    warnings.warn(f"{source}: {len(scan.cut_short)} ensemble(s) cut short by the next one left out: "
+                  f"{'; '.join(said)}{more} (a file cut there with another recording joined behind, or bytes a "
+                  f"logger lost; its rest is not in the file, so its checksum fails); {scan.ensembles} whole ones "
+                  "read", RuntimeWarning, stacklevel=4)
+
+
+def _warn_stray(scan: Pd0Scan, source: str) -> None:
+    """Warn that bytes that belong to no ensemble lie between two whole ones (a logger's CR LF or time tag):
+    they are skipped and both ensembles read (dolfyn, finding no header where the first one ends, would lose it)."""
+    at, n, head = scan.stray[0]
+    after = next((f"after ensemble {k} " for k, (_, b) in zip(scan.numbers, scan.spans) if b == at), "")
+    more = f" and {len(scan.stray) - 1} more place(s)" if len(scan.stray) > 1 else ""
+    warnings.warn(f"{source}: {sum(k for _, k, _ in scan.stray)} byte(s) between ensembles belong to none and are "
+                  f"skipped: {n} {after}at byte {at} ({head!r}{'...' if n > len(head) else ''}){more}; the ensembles "
+                  "either side are whole (their checksums hold) and read", RuntimeWarning, stacklevel=4)
+
+
 def _warn_leading(scan: Pd0Scan, source: str) -> None:
     """Warn that the file does not start with an ensemble (a logger that started mid-ensemble, a preamble, a
     file glued behind another): those bytes are skipped, and a whole ensemble may be among them."""
@@ -652,9 +700,10 @@ def _warn_leading(scan: Pd0Scan, source: str) -> None:
 def left_out_notes(counts: dict) -> list[str]:
     """The notes of a DVL stream on the parts of the file that were left out or moved before any ping was read
     (corrupt ensembles, copies, ensembles out of time order, one cut by the end of the file, bytes before the
-    first), from :attr:`DvlLog.counts`."""
-    return [f"{counts[key]} {key}" for key in ("bad checksum (ensemble left out)", REPEATED_ENSEMBLE, SORTED_ENSEMBLE,
-                                               CUT_ENSEMBLE, LEADING_BYTES) if counts.get(key)]
+    first and between two), from :attr:`DvlLog.counts`."""
+    return [f"{counts[key]} {key}" for key in ("bad checksum (ensemble left out)", CUT_SHORT_ENSEMBLE,
+                                               REPEATED_ENSEMBLE, SORTED_ENSEMBLE,
+                                               CUT_ENSEMBLE, LEADING_BYTES, STRAY_BYTES) if counts.get(key)]
 
 
 def _warn_counts(counts: dict, source: str) -> None:
@@ -727,9 +776,13 @@ def _dataset(path: Path, scan: Pd0Scan):
         warnings.warn(f"{source}: {scan.bad_checksum} ensemble(s) with a wrong checksum (corrupt) left out; "
                       f"{scan.ensembles} good ones read", RuntimeWarning, stacklevel=3)
     if scan.repeated:
-        warnings.warn(f"{source}: {scan.repeated} ensemble(s) written twice (identical byte for byte to an earlier "
-                      f"one: a logger's retry, or a file appended to itself) left out: {_copies_named(scan.copies)}; "
-                      f"{scan.ensembles} read once" + _cut_copies_named(scan.cut_copies), RuntimeWarning, stacklevel=3)
+        whole = scan.repeated - len(scan.cut_copies)
+        how = ("identical byte for byte to an earlier one" if not scan.cut_copies else
+               f"{whole} identical byte for byte to an earlier one, {len(scan.cut_copies)} cut short and the same as "
+               "far as its bytes go" if whole else "cut short and the same as an earlier one as far as its bytes go")
+        warnings.warn(f"{source}: {scan.repeated} ensemble(s) written twice ({how}: a logger's retry, or a file "
+                      f"appended to itself) left out: {_copies_named(scan.copies)}; {scan.ensembles} read once"
+                      + _cut_copies_named(scan.cut_copies), RuntimeWarning, stacklevel=3)
     if scan.unplaced:
         raise DataError(f"the ensembles cannot be put in time order: {scan.unplaced}", source, field="time")
     if scan.moved:
@@ -741,15 +794,47 @@ def _dataset(path: Path, scan: Pd0Scan):
                         + (f" ({', '.join(f'ensemble {n}' for n in scan.numbers)})" if scan.ensembles else "")
                         + f": too short to read; a PD0 file needs at least {MIN_ENSEMBLES} (dolfyn reads an "
                         "ensemble only when another follows it, and its ping rate from two)", source)
-    if scan.bad_checksum or scan.repeated or scan.moved:
-        ds = _read_good_ensembles(path, scan)
-    else:
-        ds = _read_rdi(path)
+    if scan.stray:
+        _warn_stray(scan, source)
+    if scan.cut_short:
+        _warn_cut_short(scan, source)
+    try:
+        if scan.bad_checksum or scan.repeated or scan.moved or scan.stray or scan.cut_short:
+            ds = _read_good_ensembles(path, scan)
+        else:
+            ds = _read_rdi(path)
+    except DataError as exc:
+        change = _instrument_change(path.read_bytes(), scan)
+        if not change:
+            raise
+        raise DataError(f"{change}; dolfyn reads one instrument per file ({exc.message})", source) from None
     if "vel_bt" not in ds:
         raise DataError("no bottom track in the file (PD0 block 0x0600 absent): an ADCP current-profile "
                         "recording without bottom tracking gives no velocity over the seabed", source,
                         field="vel_bt")
     return ds
+
+
+#: Bytes of the fixed leader (block 0x0000) that name the instrument: firmware version and revision, number of beams,
+#: serial number (RDI P/N 951-6079-00); the rest (cells, orientation bits, ...) may change within one recording.
+INSTRUMENT_BYTES = (2, 3, 8, 54, 55, 56, 57)
+
+
+def _instrument_change(raw: bytes, scan: Pd0Scan) -> str:
+    """Where the instrument (firmware, beams, serial: :data:`INSTRUMENT_BYTES` of the fixed leader) first changes
+    between ensembles next in the file, said with what a user can do; "" when it never does: recordings of two
+    instruments joined in one file, which dolfyn cannot read."""
+    def instrument(start: int) -> bytes:
+        offsets = struct.unpack_from(f"<{raw[start + 5]}H", raw, start + 6)
+        fixed = next((start + o for o in offsets if raw[start + o:start + o + 2] == b"\x00\x00"), None)
+        return b"" if fixed is None else bytes(raw[fixed + i] for i in INSTRUMENT_BYTES if fixed + i < len(raw))
+    in_file = sorted(zip((a for a, _ in scan.spans), scan.numbers))
+    for (a, n), (b, m) in zip(in_file, in_file[1:]):
+        if instrument(a) != instrument(b):
+            return (f"the instrument (firmware, beams or serial number of the fixed leader) changes from ensemble {n} "
+                    f"(byte {a}) to ensemble {m} (byte {b}): recordings of two instruments joined in one file; load "
+                    f"each from a file of its own (the bytes before {b} and from {b} on)")
+    return ""
 
 
 def _copies_named(copies: list) -> str:
@@ -783,13 +868,14 @@ def read_pd0_log(path: str | Path, config: SensorConfig | None = None) -> DvlLog
     ``no bottom lock``, ``fewer than 3 beams`` (beam files), ``3-beam solution`` (rotated files: velocity
     without beams), ``not read by dolfyn (last ensemble)``, ``flagged beams`` (beam values, beam files),
     ``bad pressure word`` and ``depth out of range`` (pressure readings), ``bad checksum (ensemble left out)``
-    (corrupt ensembles, not part of ``read``), :data:`REPEATED_ENSEMBLE` (copies left out, not part of ``read``),
+    (corrupt ensembles, not part of ``read``), :data:`CUT_SHORT_ENSEMBLE` (cut short by the next ensemble, not part
+    of ``read``), :data:`REPEATED_ENSEMBLE` (copies left out, not part of ``read``),
     :data:`SORTED_ENSEMBLE` (ensembles moved to their time, read),
-    :data:`CUT_ENSEMBLE` (1 when the file ends inside an ensemble, not
-    part of ``read``), :data:`LEADING_BYTES` (bytes before the first ensemble, skipped). ``instrument`` holds the fixed
-    leader (model, frequency, beam angle and pattern, orientation, EX bits, serial, firmware), where the beam
-    matrix came from and the geometry in ``d`` (``beam_theta_rad``, ``beam_psi_rad``). ``v_n`` of instrument,
-    ship and beam files uses the stored heading as recorded (RDI's heading alignment ``EB`` and magnetic
+    :data:`CUT_ENSEMBLE` (1 when the file ends inside an ensemble, not part of ``read``), :data:`LEADING_BYTES`
+    (bytes before the first ensemble, skipped), :data:`STRAY_BYTES` (bytes between two, skipped). ``instrument``
+    holds the fixed leader (model, frequency, beam angle and pattern, orientation, EX bits, serial, firmware),
+    where the beam matrix came from and the geometry in ``d`` (``beam_theta_rad``, ``beam_psi_rad``). ``v_n`` of
+    instrument, ship and beam files uses the stored heading as recorded (RDI's heading alignment ``EB`` and magnetic
     variation ``EV``, in ``instrument``, are applied by the instrument only to ship/earth outputs).
 
     Raises:
@@ -822,6 +908,10 @@ def read_pd0_log(path: str | Path, config: SensorConfig | None = None) -> DvlLog
         counts[REPEATED_ENSEMBLE] = scan.repeated
     if scan.moved:
         counts[SORTED_ENSEMBLE] = scan.moved
+    if scan.cut_short:
+        counts[CUT_SHORT_ENSEMBLE] = len(scan.cut_short)
+    if scan.stray:
+        counts[STRAY_BYTES] = sum(n for _, n, _ in scan.stray)
     if scan.leading_bytes:
         counts[LEADING_BYTES] = scan.leading_bytes
         _warn_leading(scan, source)
@@ -863,12 +953,13 @@ def read_pd0(path: str | Path, config: SensorConfig | None = None) -> tuple[DvlD
     used (3-beam solutions), and the pressure depth of a PD0 file in any RDI frame; also a dict of metadata
     (``pd0_*`` keys, ``streams``: what was read and refused, :mod:`graphnav.core.streams`). Pings that share a time
     are spread within their clock's tick (:func:`spread_shared_times`; the stream's ``doubted``
-    :data:`SPREAD_TIME`)."""
+    :data:`SPREAD_TIME`), those of a clock that stood still up to its next time (:data:`STALLED_TIME`)."""
     from graphnav.core.streams import add_note, count_read, count_refused, say_doubted
     config = config or SensorConfig()
     log = read_pd0_log(path, config)
     source = log.source
-    t, spread = spread_shared_times(log.t)
+    spread, notes = with_spread_times(log)
+    t = spread.t
     beams_ok = log.beam_valid.sum(axis=1) >= 3
     v_d_used = log.v_d_valid & ~beams_ok              # beams win where they exist: one measurement per ping
     dvl = DvlData(t, np.where(log.beam_valid, log.beams, np.nan), log.beam_valid.copy(), None,
@@ -882,9 +973,8 @@ def read_pd0(path: str | Path, config: SensorConfig | None = None) -> tuple[DvlD
                   "pd0_ensembles": len(log), "pd0_instrument": log.instrument["model"], "pd0_counts": log.counts,
                   "dvl_ping_where": log.where}
     entry = count_read(meta, "dvl", t, f"{source}:vel_bt")
-    if spread.any():
-        say_doubted(meta, "dvl", source, _spread_note(log.t, t, spread, log.where), SPREAD_TIME, int(spread.sum()),
-                    stacklevel=3)
+    for text, reason, n in notes:
+        say_doubted(meta, "dvl", source, text, reason, n, stacklevel=3)
     unread = log.counts.get("not read by dolfyn (last ensemble)", 0)
     entry["read"] += unread              # in the file, so read; then refused with its reason
     entry["used"] += unread
@@ -919,6 +1009,10 @@ def read_pd0(path: str | Path, config: SensorConfig | None = None) -> tuple[DvlD
 SPREAD_TIME = "ensemble time shared with the ping before (stamp spread after it)"
 
 
+#: The ``doubted`` reason of the pings whose stamp :func:`spread_shared_times` moved because their clock stood still.
+STALLED_TIME = "DVL clock stood still (stamp spread up to its next time)"
+
+
 #: The tick of a clock whose every time is a whole second (its hundredths zero): the true time of a ping it stamps
 #: lies in the second after.
 WHOLE_SECOND_TICK_S = 1.0
@@ -931,27 +1025,104 @@ def spread_shared_times(t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     ``k`` pings at a time ``T`` are put ``min(T' - T, tick) / k`` apart from ``T`` in ensemble order, ``T'`` the next
     time and ``tick`` the clock's: the median step between its distinct times, at most the second a clock of whole
     seconds vouches for (pings in bursts would otherwise be spread over the pause between bursts), RDI's 0.01 s when it
-    gives one time only. A gap after them is not spread over."""
+    gives one time only. A gap after them is not spread over. Pings of a clock that stood still
+    (:func:`stalled_clock`) are put ``min((T' - T) / k, period)`` apart instead: they were taken at the ping period up
+    to the time the clock jumped to."""
     t = np.asarray(t, float)
     if len(t) < 2 or np.all(np.diff(t) > 0):
         return t, np.zeros(len(t), bool)
-    starts = np.flatnonzero(np.r_[True, np.diff(t) != 0])
-    sizes = np.diff(np.r_[starts, len(t)])
-    room = np.diff(np.r_[t[starts], np.inf])
+    starts, sizes, room = _time_groups(t)
     tick = float(np.median(room[:-1])) if len(starts) > 1 else 0.01
     if np.all(t[starts] == np.round(t[starts])):
         tick = min(tick, WHOLE_SECOND_TICK_S)
+    step = np.minimum(room, tick) / sizes
+    stalled, period = _stalled_groups(t, starts, sizes, room)
+    step[stalled] = np.minimum(room[stalled] / sizes[stalled], period)
     rank = np.arange(len(t)) - np.repeat(starts, sizes)
-    return t + rank * np.repeat(np.minimum(room, tick) / sizes, sizes), rank > 0
+    return t + rank * np.repeat(step, sizes), rank > 0
+
+
+def _time_groups(t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The runs of one time in stamps ``t`` (s, in time order): their first index, size and the time to the next
+    run's (inf after the last)."""
+    starts = np.flatnonzero(np.r_[True, np.diff(t) != 0])
+    return starts, np.diff(np.r_[starts, len(t)]), np.diff(np.r_[t[starts], np.inf])
+
+
+#: A run of pings sharing one time is a stalled clock when it holds more pings than the clock's resolution can
+#: at the ping period, by this many periods or more: half a period keeps the pairs a clock of whole seconds gives
+#: an instrument pinging a little faster than 1 Hz.
+STALL_MARGIN_PERIODS = 0.5
+
+
+def _stalled_groups(t: np.ndarray, starts: np.ndarray, sizes: np.ndarray, room: np.ndarray
+                    ) -> tuple[np.ndarray, float]:
+    """Which runs of one time (:func:`_time_groups`) are a clock that stood still, and the ping period (s). A clock
+    that gives most pings a time of their own (at least half of the runs single) measures the ping period (the
+    median step after a single ping); a run of ``k`` pings at one time on it could only have been taken within the
+    clock's resolution (1 s for a clock of whole seconds, RDI's 0.01 s else) if ``(k - 1)`` periods fit in it:
+    more, by :data:`STALL_MARGIN_PERIODS`, and the clock stood still while the instrument pinged on. None on a
+    clock slower than the pings (most runs shared), whose shared times are its ticks."""
+    single = (sizes == 1)[:-1]
+    if len(starts) < 3 or single.sum() < 0.5 * len(single):
+        return np.zeros(len(starts), bool), float("nan")
+    period = float(np.median(room[:-1][single]))
+    resolution = WHOLE_SECOND_TICK_S if np.all(t[starts] == np.round(t[starts])) else 0.01
+    return (sizes - 1 - STALL_MARGIN_PERIODS) * period > resolution, period
+
+
+def stalled_clock(t: np.ndarray) -> np.ndarray:
+    """(M,) bool: the pings after the first of a run that shares one time because the clock stood still
+    (:func:`_stalled_groups`), of stamps ``t`` (s, in time order)."""
+    t = np.asarray(t, float)
+    if len(t) < 2:
+        return np.zeros(len(t), bool)
+    starts, sizes, room = _time_groups(t)
+    stalled, _ = _stalled_groups(t, starts, sizes, room)
+    rank = np.arange(len(t)) - np.repeat(starts, sizes)
+    return np.repeat(stalled, sizes) & (rank > 0)
+
+
+def with_spread_times(log: DvlLog) -> tuple[DvlLog, list[tuple[str, str, int]]]:
+    """``log`` with the pings that share a time spread (:func:`spread_shared_times`), and what to say about them:
+    ``(note, doubted reason, pings)`` for the pings of a clock that stood still (:data:`STALLED_TIME`) and for the
+    others moved (:data:`SPREAD_TIME`), each when there are any. A mission's DVL stream and a dead reckoning need
+    one stamp per ping. A log whose stamps run back (a CSV out of time order) is left as it is: what is shared there
+    cannot be told."""
+    if np.any(np.diff(np.asarray(log.t, float)) < 0):
+        return log, []
+    t, moved = spread_shared_times(log.t)
+    stalled = stalled_clock(log.t) & moved
+    where = log.where or [f"ping {k}" for k in range(len(t))]
+    notes = [(_stall_note(log.t, t, stalled, where), STALLED_TIME, int(stalled.sum()))] if stalled.any() else []
+    if (moved & ~stalled).any():
+        notes.append((_spread_note(log.t, t, moved & ~stalled, where), SPREAD_TIME, int((moved & ~stalled).sum())))
+    return (dataclasses.replace(log, t=t) if moved.any() else log), notes
 
 
 def _spread_note(t: np.ndarray, spread: np.ndarray, moved: np.ndarray, where: list[str]) -> str:
-    """The note on the pings :func:`spread_shared_times` moved."""
+    """The note on the pings :func:`spread_shared_times` moved within their clock's tick."""
     first = int(np.flatnonzero(moved)[0])
     return (f"{int(moved.sum())} of {len(t)} ping(s) share their ensemble's time (the variable leader's clock) with "
             f"the ping before (a clock that ticks slower than the instrument pings, or repeats a time): spread after "
-            f"it in ensemble order within the clock's tick, at most {np.max(spread - t):.3f} s after the time "
-            f"recorded, first {where[first]} at {_utc(t[first])}; the DVL's own clock cannot tell these times better")
+            f"it in ensemble order within the clock's tick, at most {np.max((spread - t)[moved]):.3f} s after the "
+            f"time recorded, first {where[first]} at {_utc(t[first])}; the DVL's own clock cannot tell these times "
+            "better")
+
+
+def _stall_note(t: np.ndarray, spread: np.ndarray, stalled: np.ndarray, where: list[str]) -> str:
+    """The note on the pings of a clock that stood still (:func:`stalled_clock`), spread up to its jump."""
+    first = int(np.flatnonzero(stalled)[0])
+    head = int(np.flatnonzero(t == t[first])[0])
+    run = int(np.sum(t == t[first]))
+    nxt = t[t > t[first]]
+    jump = f"then jumped {nxt[0] - t[first]:.2f} s" if len(nxt) else "to the end of the file"
+    runs = int(np.sum(stalled[1:] & ~stalled[:-1]) + stalled[0])
+    return (f"the DVL's clock stood still: {run} pings from {where[head]} share its time {_utc(t[first])}, "
+            f"{jump}, while elsewhere it gives each ping a time of its own"
+            + (f" ({runs} such stall(s), {int(stalled.sum())} ping(s) in all)" if runs > 1 else "")
+            + ": spread evenly up to the next time at the ping period at most, at most "
+            f"{np.max((spread - t)[stalled]):.3f} s after the time recorded; their times are a guess")
 
 
 def pd0_geometry(config: SensorConfig, meta: dict) -> SensorConfig:
