@@ -737,9 +737,9 @@ def check_filler_gaps(t: np.ndarray, filler: np.ndarray, source: str, lines: np.
     ``lines`` gives it, the file line of the row after it) when a run of rows without a measurement between two other
     rows at stamps ``t`` (N,) s leaves an IMU gap longer than can be bridged: the IMU stopped there as it does in a
     true gap of that length. ``filler`` (N,) bool: the all-zero rows; ``unmeasured`` (N,) bool: those and any other
-    row refused for holding no measurement (a NaN, a dead accelerometer: :func:`imu_unmeasured`; default ``filler``): filler next to NaN
-    rows leaves one gap. A run at either end of the file only starts the IMU later or ends it earlier; a file of
-    filler only is a DataError too (the IMU delivered nothing)."""
+    row refused for holding no measurement (a NaN, a dead accelerometer: :func:`imu_unmeasured`; default
+    ``filler``): filler next to NaN rows leaves one gap. A run at either end of the file only starts the IMU later or
+    ends it earlier; a file of filler only is a DataError too (the IMU delivered nothing)."""
     t, filler = np.asarray(t, float), np.asarray(filler, bool)
     if len(t) and filler.all():
         raise DataError(f"all {len(t)} IMU rows are all-zero (a logger's filler: zero specific force is impossible "
