@@ -518,13 +518,15 @@ def test_imu_messages_with_a_nan_are_refused_and_counted_not_the_whole_bag(tmp_p
     mission.imu.omega_b[bad[::2], 2] = np.inf
     path = bag_driver.write_driver_bag(mission, tmp_path / "nans", leak_sensor=False, housing_sensor=False)
     m, warned = _load(path, mission.config)
-    assert m.meta["streams"]["imu"]["refused"]["not finite"] == bad.size
+    # under the reason a column map's row gets, naming the message's field (the first one not finite)
+    assert m.meta["streams"]["imu"]["refused"] == {"empty or NaN in 'linear_acceleration.x'": bad.size}
     assert len(m.imu.t) == len(mission.imu.t) - bad.size and np.all(np.isfinite(m.imu.f_b))
-    assert any("/imu/data: 20 IMU message(s) with a NaN or infinite value refused (first: message 100 "
-               "(t = 1.000 s))" in w for w in warned)
+    assert any("/imu/data: 20 imu sample(s) refused (20 empty or NaN in 'linear_acceleration.x') at message 100 "
+               "(t = 1.000 s), message 200 (t = 2.000 s)" in w for w in warned)
     mission.imu.f_b[::2, 0] = np.nan           # more than half: an error naming the stream
     path = bag_driver.write_driver_bag(mission, tmp_path / "mostly", leak_sensor=False, housing_sensor=False)
-    with pytest.raises(DataError, match=r"imu samples refused \(\d+ not finite\): more than 50%"):
+    with pytest.raises(DataError, match=r"imu samples refused \(\d+ empty or NaN in 'linear_acceleration.x'\): "
+                                        r"more than 50%"):
         _load(path, mission.config)
 
 
@@ -544,9 +546,112 @@ def test_all_zero_imu_messages_are_refused_as_a_loggers_filler_naming_topic_and_
     assert m.meta["streams"]["imu"]["refused"] == {filler: 51}
     assert len(m.imu.t) == len(mission.imu.t) - 51 and np.all(np.any(m.imu.f_b != 0.0, axis=1))
     said = [w for w in warned if "all-zero IMU" in w]
-    assert len(said) == 1 and "/imu/data: 51 all-zero IMU message(s)" in said[0]
-    assert "refused (first: message 700 (t = 7.000 s))" in said[0]
+    assert len(said) == 1 and f"/imu/data: 51 imu sample(s) refused (51 {filler}) at message 700 (t = 7.000 s), " \
+        "message 2000 (t = 20.000 s)" in said[0]
     assert any("a gap of 0.5 s in the stamps" in w for w in warned)
+
+
+#: The IMU message's six fields, the columns of the same IMU written as a column map.
+IMU_FIELDS = ["linear_acceleration.x", "linear_acceleration.y", "linear_acceleration.z",
+              "angular_velocity.x", "angular_velocity.y", "angular_velocity.z"]
+
+
+def _as_column_map(mission, root):
+    """``mission``'s IMU (FRD, the values as they are: NaN, inf and zeros written so) and DVL beams as a column map
+    in ``root`` (Unix stamps, the IMU's columns named as the IMU message's fields); returns its configuration file."""
+    root.mkdir(parents=True)
+    for name, header, rows in (("imu", ["t", *IMU_FIELDS], [mission.imu.f_b, mission.imu.omega_b]),
+                               ("dvl", ["t", "b1", "b2", "b3", "b4"], [mission.dvl.beams])):
+        t = (mission.imu.t if name == "imu" else mission.dvl.t) + 1.7e9
+        table = np.column_stack([t, *rows])
+        (root / f"{name}.csv").write_text("\n".join([",".join(header)] + [",".join(
+            "" if name == "dvl" and np.isnan(x) else f"{x:.12g}" for x in r) for r in table]) + "\n")
+    cfg = mission.config.to_dict()
+    cfg["csv_columns"] = {"imu": {"file": "imu.csv", "t": "t", "f_b": IMU_FIELDS[:3], "omega_b": IMU_FIELDS[3:]},
+                          "dvl": {"file": "dvl.csv", "t": "t", "beams": ["b1", "b2", "b3", "b4"]}}
+    (root / "config.json").write_text(json.dumps(cfg))
+    return root / "config.json"
+
+
+def _read_both(mission, tmp_path, kinds=("bag", "csv")):
+    """``mission`` written as a driver bag and as a column map, each of ``kinds`` read (not prepared): ``{"bag":
+    (mission, warnings), "csv": (mission, warnings)}``."""
+    import warnings
+
+    from graphnav.io.loaders import read_mission
+    config = _as_column_map(mission, tmp_path / "csv")
+    bag = bag_driver.write_driver_bag(mission, tmp_path / "bag", leak_sensor=False, housing_sensor=False)
+    out = {}
+    for kind, path in (("bag", bag), ("csv", tmp_path / "csv")):
+        if kind not in kinds:
+            continue
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            out[kind] = read_mission(path, config if kind == "csv" else None), [str(w.message) for w in caught]
+    return out
+
+
+def test_a_damaged_imu_is_refused_in_a_bag_as_in_a_column_map(tmp_path):
+    """The same IMU with filler rows, a dead accelerometer beside a live gyro (alone and after filler), NaN and
+    infinite values, written as a driver bag and as a column map: the bag refused NaN and filler by rules of its own,
+    under reasons of its own ('not finite' for all 5 rows) in two warnings, and its 12 dead-accelerometer rows only
+    later in a third. Now both go through the one screening: the same reasons and counts in one warning each, and
+    the same rows kept."""
+    mission = simulate_mission(duration_s=40.0, seed=5)
+    f, w = mission.imu.f_b, mission.imu.omega_b
+    f[[300, 1500, *range(2000, 2010)]], w[[300, 1500, *range(2000, 2010)]] = 0.0, 0.0
+    f[[700, 2500, *range(2010, 2020)]] = 0.0
+    f[900, 1], w[1100, 2], f[2600:2603, 2] = np.nan, np.inf, np.nan
+    read = _read_both(mission, tmp_path)
+    (bag, bag_warned), (csv, csv_warned) = read["bag"], read["csv"]
+    refused = csv.meta["streams"]["imu"]["refused"]
+    assert refused == {"all-zero IMU row (a logger's filler: zero specific force is impossible under gravity)": 12,
+                       "accelerometer all zero beside a live gyro (a dead accelerometer: zero specific force is "
+                       "impossible under gravity)": 12, "empty or NaN in 'linear_acceleration.y'": 1,
+                       "empty or NaN in 'linear_acceleration.z'": 3, "infinite in 'angular_velocity.z'": 1}
+    assert bag.meta["streams"]["imu"]["refused"] == refused
+
+    def said(warned):      # the refusal of each, without the file and where it holds the rows
+        return [re.sub(r"^.*?: (\d+ imu sample)", r"\1", re.sub(r"\) at .*", ")", w)) for w in warned
+                if "imu sample(s) refused" in w]
+    assert said(bag_warned) == said(csv_warned) and len(said(csv_warned)) == 1
+    assert said(bag_warned)[0].startswith("29 imu sample(s) refused (12 all-zero IMU row")
+    assert len(bag.imu.t) == len(csv.imu.t) == len(mission.imu.t) - 29
+    np.testing.assert_allclose(bag.imu.t - bag.imu.t[0], csv.imu.t - csv.imu.t[0], atol=1e-6)
+    np.testing.assert_allclose(bag.imu.f_b, csv.imu.f_b, rtol=1e-9)
+    np.testing.assert_allclose(bag.imu.omega_b, csv.imu.omega_b, rtol=1e-9, atol=1e-15)
+
+
+def test_filler_then_a_dead_accelerometer_past_the_bridge_limit_stops_a_bag_as_a_column_map(tmp_path):
+    """400 s of a logger's filler then 210 s of a dead accelerometer (a 10 Hz IMU): together a 610 s gap, which the
+    column map refuses as the IMU stopping. The bag's own filler check left the dead rows out and saw 400 s, bridged;
+    those rows then reached the unit check, which refused the bag for an accelerometer of median 0 ('not gravity in
+    m/s^2'). Now the bag names the 610 s gap as the column map does."""
+    from graphnav.core.config import SensorConfig
+    config = SensorConfig()
+    config.imu_rate_hz = 10.0
+    mission = simulate_mission(duration_s=800.0, seed=5, config=config)
+    mission.imu.f_b[1000:7100] = 0.0
+    mission.imu.omega_b[1000:5000] = 0.0
+    gap = (r"IMU gap left by 6100 IMU row\(s\) without a measurement \(4000 all-zero: a logger's filler; the others "
+           r"NaN or infinite[^)]*\) of 610\.1 s after t = ")
+    for kind in ("csv", "bag"):
+        with pytest.raises(DataError, match=gap):
+            _read_both(mission, tmp_path / kind, (kind,))
+
+
+def test_a_bag_and_a_column_map_look_for_imu_rows_without_a_measurement_once(tmp_path, monkeypatch):
+    """The filler gap check (and the rest of the refusal of rows holding no measurement) ran twice on a bag's IMU
+    and on a column map's: at read and again in the screening of the rows kept. It runs once now."""
+    from graphnav.core import screening
+    calls = []
+    check = screening.check_filler_gaps
+    monkeypatch.setattr(screening, "check_filler_gaps", lambda *a, **kw: calls.append(1) or check(*a, **kw))
+    mission = simulate_mission(duration_s=20.0, seed=5)
+    mission.imu.f_b[[300, 900]] = 0.0
+    read = _read_both(mission, tmp_path)
+    assert [m.meta["streams"]["imu"]["refused"][screening.ACCEL_ZERO] for m, _ in read.values()] == [2, 2]
+    assert len(calls) == 2                 # once for the bag, once for the column map
 
 
 def test_an_imu_clock_days_away_moves_every_stream_onto_it(tmp_path, capsys):

@@ -3043,7 +3043,8 @@ def test_an_imu_of_filler_only_or_filler_beside_nan_rows_past_the_bridge_limit_i
     y[1000:1025] = 0.0
     y[1025:1050] = np.nan
     with pytest.raises(DataError, match=r"imu\.csv, line 1052: IMU gap left by 50 IMU row\(s\) without a measurement "
-                                        r"\(25 all-zero: a logger's filler; the others NaN or infinite\) "
+                                        r"\(25 all-zero: a logger's filler; the others NaN or infinite, or a dead "
+                                        r"accelerometer's zeros\) "
                                         r"of 700\.51 s after t = 9\.990 s"):
         imu_unmeasured(t_gap, y[:, :3], y[:, 3:], source="imu.csv", lines=lines)
     y[1025:1050] = x[1025:1050]            # the same stamps, the rows after the filler real: 350 s, bridged

@@ -15,7 +15,7 @@ from graphnav.calibration.reference import (
     cumulative_integral,
     interp_rows,
 )
-from graphnav.core.dvl import DvlGeometry
+from graphnav.core.dvl import beam_velocity_b
 from graphnav.core.errors import DataError
 from graphnav.core.mission import Mission
 from graphnav.core.rotations import skew
@@ -155,14 +155,9 @@ def dvl_velocity(mission: Mission) -> tuple[np.ndarray, np.ndarray]:
     """The DVL-head body velocity of each ping as the estimators see it, and the mask of usable pings.
 
     The instrument's own velocity (``dvl.v_b``) when present, else least squares from >= 3 valid beams
-    with the configured geometry.
+    with the configured geometry (:func:`graphnav.core.dvl.beam_velocity_b`).
     """
-    dvl = mission.dvl
-    if dvl.v_b is not None:
-        v = dvl.v_b
-    else:
-        v = DvlGeometry.from_spec(mission.config.dvl).velocity_from_beams(dvl.beams, dvl.valid,
-                                                                          allow_missing=True)
+    v = beam_velocity_b(mission.dvl, mission.config.dvl)
     return v, np.all(np.isfinite(v), axis=1)
 
 

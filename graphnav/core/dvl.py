@@ -249,10 +249,7 @@ def screen_implausible(dvl, spec: DvlSpec):
     import warnings
 
     from graphnav.core.mission import DvlData
-    v = dvl.v_b
-    if v is None:
-        v = DvlGeometry.from_spec(spec).velocity_from_beams(dvl.beams, dvl.valid, allow_missing=True)
-    masks = implausible_pings(dvl.t, v, spec)
+    masks = implausible_pings(dvl.t, beam_velocity_b(dvl, spec), spec)
     bad = np.any(list(masks.values()), axis=0)
     if not bad.any():
         return dvl

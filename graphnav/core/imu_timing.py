@@ -888,14 +888,15 @@ def _on_the_line(s: np.ndarray, repeats: np.ndarray, period_s: float, later: boo
     return (moved > -0.5) & (later | (moved < 0.5))
 
 
-def _moved_along_the_line(s: np.ndarray, repeats: np.ndarray, period_s: float, copies: np.ndarray) -> np.ndarray:
+def _moved_along_the_line(s: np.ndarray, repeats: np.ndarray, period_s: float, copies: np.ndarray,
+                          samples: int = REPEAT_CHECK_SAMPLES) -> np.ndarray:
     """How far (periods) the mean offset of relative stamps ``s`` (s) from a line at ``period_s`` (s) moves across
-    each of the ``repeats`` (indexes of samples repeating the stamp before them), over
-    :data:`REPEAT_CHECK_SAMPLES` samples on either side; NaN without samples after it. The samples after the
-    repeats judged ``copies`` (bool, each) are counted one earlier, each repeat's own move left in."""
+    each of the ``repeats`` (indexes of samples repeating the stamp before them), over ``samples`` samples on either
+    side (fewer at the ends); NaN without samples after it. The samples after the repeats judged ``copies`` (bool,
+    each) are counted one earlier, each repeat's own move left in."""
     r = repeats                     # the pair r - 1, r left out: their offsets are the jitter
     total = np.r_[0.0, np.cumsum(s - _order_without(s.size, r[copies]) * period_s)]
-    a, b = np.maximum(0, r - 1 - REPEAT_CHECK_SAMPLES), np.minimum(s.size, r + 1 + REPEAT_CHECK_SAMPLES)
+    a, b = np.maximum(0, r - 1 - samples), np.minimum(s.size, r + 1 + samples)
     # a repeat of the first stamp has the pair's first sample alone before it: a row written twice there still puts
     # the samples after it a period early against that sample; after the last stamp nothing tells
     end = np.maximum(r - 1, 1)
@@ -1027,12 +1028,9 @@ def _confirmed(s: np.ndarray, rows: np.ndarray, copies: np.ndarray) -> np.ndarra
     twice (200 Hz in whole 10 ms with jitter): beyond half a period at about one repeat in 10^4, 25 of 352429 rows
     repeating at shared stamps over 1.5 h, each dropped and the grid broken there."""
     r = rows[copies]
-    period = _line_through(s, r)[0]
-    total = np.r_[0.0, np.cumsum(s - _order_without(s.size, r) * period)]
-    a, b = r - 1 - CONFIRM_SAMPLES, r + 1 + CONFIRM_SAMPLES
-    whole = (a >= 0) & (b <= s.size)
-    a, b = np.where(whole, a, 0), np.where(whole, b, s.size)
-    moved = (total[b] - total[r + 1] - total[r - 1] + total[a]) / (CONFIRM_SAMPLES * period)    # counted out
+    whole = (r - 1 - CONFIRM_SAMPLES >= 0) & (r + 1 + CONFIRM_SAMPLES <= s.size)
+    # the move with the copies counted out, each one's own period put back: as the samples they would be
+    moved = _moved_along_the_line(s, r, _line_through(s, r)[0], np.ones(r.size, bool), CONFIRM_SAMPLES) + 1.0
     out = copies.copy()
     out[np.flatnonzero(copies)[whole & (moved > 0.5)]] = False
     return out

@@ -178,7 +178,13 @@ def stamp_problem(t, previous: float | None = None) -> str | None:
     if abs(t) > MAX_STAMP_S:
         return (f"stamp {t:.6g} s is beyond {MAX_STAMP_S:g} s (micro/nanoseconds read as seconds, or a "
                 "corrupted stamp)")
-    if previous is not None and math.isfinite(previous) and t - previous > MAX_STAMP_GAP_S:
+    return None if previous is None else stamp_jumps_ahead(t, previous)
+
+
+def stamp_jumps_ahead(t: float, previous: float) -> str | None:
+    """Why the stamp t (s, a number within :data:`MAX_STAMP_S`) jumps too far ahead of ``previous`` (the newest stamp
+    of its stream, s): more than :data:`MAX_STAMP_GAP_S` (years: a clock reset or a corrupted stamp), or None."""
+    if math.isfinite(previous) and t - previous > MAX_STAMP_GAP_S:
         return f"stamp jumps {t - previous:.6g} s ahead of the stream (more than {MAX_STAMP_GAP_S:g} s)"
     return None
 
@@ -657,7 +663,7 @@ def jumped(departure, before, limit):
 
 def imu_implausible(t: np.ndarray, f_b: np.ndarray, omega_b: np.ndarray, config: SensorConfig, fields=IMU_FIELDS,
                     meta: dict | None = None, source: str = "", dvl: tuple | None = None,
-                    lines: np.ndarray | None = None) -> dict[str, np.ndarray]:
+                    lines: np.ndarray | None = None, unmeasured: bool = True) -> dict[str, np.ndarray]:
     """The IMU rows a loader refuses, by reason, disjoint and in the order tested: a logger's all-zero filler
     (:func:`imu_filler`, before anything judges the IMU by its rows: the run and the DVL clock search then see the gap
     it leaves, as any IMU gap), a NaN or infinite value (:func:`not_finite`; both :func:`imu_unmeasured`), beyond full
@@ -667,8 +673,10 @@ def imu_implausible(t: np.ndarray, f_b: np.ndarray, omega_b: np.ndarray, config:
     known. Filler leaving a gap longer than can be bridged is a :class:`DataError` naming ``source``
     (:func:`check_filler_gaps`). When the IMU is too slow for the spike test, a note in ``meta``'s IMU stream (when
     given) and a warning naming ``source``; a knock kept on the DVL's word: a warning, counted as doubted, and its span
-    in ``meta["imu_shocks"]`` (the stream does not test those rows again: ``NavigatorOptions.imu_shocks``)."""
-    unmeasured = imu_unmeasured(t, f_b, omega_b, fields, source, lines)
+    in ``meta["imu_shocks"]`` (the stream does not test those rows again: ``NavigatorOptions.imu_shocks``).
+    ``unmeasured=False``: the reader refused the rows holding no measurement already (:func:`imu_unmeasured` at read,
+    before its unit and axis checks), and they are not looked for again."""
+    unmeasured = imu_unmeasured(t, f_b, omega_b, fields, source, lines) if unmeasured else {}
     out_of_range = imu_out_of_range(f_b, omega_b, config)
     # the filler's stamps are the IMU's clock still ticking: its rate counts them
     bad = np.any([m for k, m in unmeasured.items() if k not in (IMU_FILLER, ACCEL_ZERO)] + list(out_of_range.values()),
@@ -749,7 +757,7 @@ def check_filler_gaps(t: np.ndarray, filler: np.ndarray, source: str, lines: np.
             zeros = int(filler[a:b].sum())
             left_by = (f"{b - a} all-zero IMU row(s) (a logger's filler)" if zeros == b - a else
                        f"{b - a} IMU row(s) without a measurement ({zeros} all-zero: a logger's filler; the others NaN "
-                       "or infinite)" if zeros else
+                       "or infinite, or a dead accelerometer's zeros)" if zeros else
                        f"{b - a} IMU row(s) without a measurement (NaN or infinite values, or a dead accelerometer)")
             check_imu_gap(float(t[a - 1]), float(t[b]), source, None if lines is None else int(lines[b]), None,
                           what=f"IMU gap left by {left_by}")
@@ -1170,12 +1178,13 @@ def check_filler_share(entry: dict, stream: str = "imu") -> None:
                         entry.get("source") or stream)
 
 
-def refuse_rows(meta: dict, stream: str, masks: dict[str, np.ndarray], source: str, lines: np.ndarray, *arrays
-                ) -> tuple[np.ndarray, ...]:
+def refuse_rows(meta: dict, stream: str, masks: dict[str, np.ndarray], source: str, lines: np.ndarray | None, *arrays,
+                where: list[str] | None = None) -> tuple[np.ndarray, ...]:
     """``arrays`` (each (N, ...), rows in file order) without the rows of ``masks`` (reason -> (N,) bool), which
-    are counted and warned about with their file ``lines`` (:func:`refuse`); DataError when more than half of a
-    stream is refused now (:func:`check_refused_fraction`)."""
-    bad = refuse(meta, stream, masks, source, lines=lines)
+    are counted and warned about with their file ``lines`` (or ``where`` the file holds each row, e.g. a bag
+    message: :func:`refuse`); DataError when more than half of a stream is refused now
+    (:func:`check_refused_fraction`)."""
+    bad = refuse(meta, stream, masks, source, lines=lines, where=where)
     check_refused_fraction(meta)
     return tuple(a[~bad] for a in arrays)
 
@@ -1959,18 +1968,21 @@ class StreamScreen:
         """Why a stamp of ``stream`` is refused: beyond the bounds, or a jump of more than
         :data:`MAX_STAMP_GAP_S` ahead of the newest stamp of the streams (they share one clock: the first such
         jump is kept in :attr:`clock_jump`, the samples refused for one counted in :attr:`jumped`)."""
-        why = stamp_problem(t, self._newest)
-        if why is None:
-            if stream == "imu" and self._jump_open and float(t) > self.clock_jump[1]:
-                self._jump_open = False     # the IMU went on past the jump on the old clock: no step
-            if float(t) > self._newest:
-                self._newest = float(t)
-        elif math.isfinite(self._newest) and abs(float(t)) <= MAX_STAMP_S and float(t) - self._newest > MAX_STAMP_GAP_S:
+        why = stamp_problem(t)
+        if why is not None:
+            return why
+        t = float(t)
+        why = stamp_jumps_ahead(t, self._newest)
+        if why is not None:
             if not self._jump_open:
-                self.clock_jump, self._jump_open, self._imu_jump_run = (stream, self._newest, float(t)), True, 0
+                self.clock_jump, self._jump_open, self._imu_jump_run = (stream, self._newest, t), True, 0
             self.jumped[stream] = self.jumped.get(stream, 0) + 1
             self._imu_jump_run += stream == "imu"
-        return why
+            return why
+        if stream == "imu" and self._jump_open and t > self.clock_jump[1]:
+            self._jump_open = False     # the IMU went on past the jump on the old clock: no step
+        self._newest = max(self._newest, t)
+        return None
 
     def clock_stepped(self) -> bool:
         """Whether the IMU samples refused for the jump of :attr:`clock_jump`, with no IMU sample going on past it

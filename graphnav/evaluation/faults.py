@@ -117,10 +117,10 @@ def glitch_velocities(v: np.ndarray, fraction: float = 0.1, seed: int = 0, margi
 def dvl_glitches(mission: Mission, fraction: float = 0.1, seed: int = 0) -> Mission:
     """:func:`glitch_velocities` in the mission's DVL: ``v_b`` and the beams (each beam moves by the
     projection of the velocity change, its noise kept); the glitched rows in ``meta["glitch_rows"]``."""
-    from graphnav.core.dvl import DvlGeometry
+    from graphnav.core.dvl import DvlGeometry, beam_velocity_b
     dvl = mission.dvl
     geom = DvlGeometry.from_spec(mission.config.dvl)
-    v = dvl.v_b if dvl.v_b is not None else geom.velocity_from_beams(dvl.beams, dvl.valid, allow_missing=True)
+    v = beam_velocity_b(dvl, mission.config.dvl)
     glitched, rows = glitch_velocities(v, fraction, seed)
     beams = dvl.beams + np.nan_to_num(glitched - v) @ geom.T_b.T
     return dataclasses.replace(mission, dvl=dataclasses.replace(dvl, beams=beams, v_b=glitched),

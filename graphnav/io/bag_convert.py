@@ -20,8 +20,9 @@ from graphnav.core.errors import ConfigError, DataError
 from graphnav.core.mission import (MAX_DVL_SPEED_MPS, MAX_FIX_SIGMA_M, DepthData, DvlData, GroundTruth, HeadingData,
                                    ImuData, PositionFixData, no_beams)
 from graphnav.core.rotations import C_NED_ENU
-from graphnav.core.screening import (EXACT_COPY, MAX_STAMP_GAP_S, NUDGED_COPY, exact_copies, located, nudged_copies,
-                                     say_exact_copies, say_imu_stamp_steps, say_nudged_copies)
+from graphnav.core.screening import (EXACT_COPY, MAX_STAMP_GAP_S, NUDGED_COPY, exact_copies, imu_unmeasured, located,
+                                     nudged_copies, refuse_rows, say_exact_copies, say_imu_stamp_steps,
+                                     say_nudged_copies)
 from graphnav.core.streams import add_note, count_refused, say_doubted
 from graphnav.io import bag_fields
 from graphnav.io.bag_msgs import MARINE_DVL, WL_DVL
@@ -29,6 +30,13 @@ from graphnav.io.bag_msgs import MARINE_DVL, WL_DVL
 #: FLU <-> FRD (its own inverse) and ENU <-> NED (its own inverse).
 FLU_FRD = np.diag([1.0, -1.0, -1.0])
 ENU_NED = C_NED_ENU
+
+
+def flu_frd(x: np.ndarray) -> np.ndarray:
+    """(N,3) vectors turned between FLU and FRD (either way) value by value: a NaN or infinite value stays in its
+    axis, where a product with :data:`FLU_FRD` spreads a NaN to all three (a bag written from an IMU with a NaN in
+    one value would hold three)."""
+    return np.asarray(x, float) * np.diag(FLU_FRD)
 TWIST_DVL = "geometry_msgs/msg/TwistWithCovarianceStamped"
 #: The fields of the built-in DVL messages read for the velocity and the beams (as :func:`bag_fields.named_fields`).
 DVL_MESSAGE_FIELDS = {MARINE_DVL: ("velocity", "beam_velocity"), WL_DVL: ("velocity", "beams[].velocity"),
@@ -360,37 +368,31 @@ def shared_clock_step_removed(s: Stream, steps: list, kind: str, source: str, me
     return dataclasses.replace(s, t_ns=t_ns) if moved else s
 
 
+#: The IMU message's fields, in the order of ``f_b`` then ``omega_b`` (the IMU rows' names in refusal reasons).
+IMU_MESSAGE_FIELDS = tuple(f"{v}.{a}" for v in ("linear_acceleration", "angular_velocity") for a in "xyz")
+
+
 def imu(s: Stream, t0_ns: int, source: str, meta: dict) -> ImuData:
-    """The IMU stream's samples (FRD, SI): a message with a NaN or infinite value, or all six values exactly 0 (a
-    logger's filler, :func:`graphnav.core.screening.imu_filler`: the gap it leaves is bridged as any IMU gap), is
-    refused, warned about (its index in the topic and its time) and counted in ``meta`` as the loaders count a
-    refused CSV row; more than half refused is a DataError (:func:`graphnav.core.screening.check_refused_fraction`),
-    and so is filler leaving a gap longer than can be bridged (:func:`graphnav.core.screening.check_filler_gaps`). A
-    step of the IMU clock or a gap is warned about and counted as a file's is
+    """The IMU stream's samples (FRD, SI): a message holding no measurement (a NaN or infinite value, all six values
+    exactly 0 as a logger's filler, a dead accelerometer beside a live gyro:
+    :func:`graphnav.core.screening.imu_unmeasured`, the one rule a column map's rows get, the gap left bridged as
+    any IMU gap) is refused, warned about (its index in the topic and its time) and counted in ``meta`` under the
+    reasons a column map's row gets (``meta["imu_unmeasured_screened"]``: not judged again); more than half refused
+    is a DataError (:func:`graphnav.core.screening.check_refused_fraction`), and so is such a run leaving a gap longer
+    than can be bridged. A step of the IMU clock or a gap is warned about and counted as a file's is
     (:func:`graphnav.core.screening.say_imu_stamp_steps`)."""
-    from graphnav.core.screening import IMU_FILLER, check_filler_gaps, check_refused_fraction, imu_filler
     f = np.array([vec(m.linear_acceleration) for m in s.rows])
     w = np.array([vec(m.angular_velocity) for m in s.rows])
     t = _rel(s, t0_ns)
     where = messages(s, t0_ns)
-    finite = np.all(np.isfinite(f), axis=1) & np.all(np.isfinite(w), axis=1)
-    filler = imu_filler(f, w)
-    check_filler_gaps(t, filler, f"{source}:{s.topic}", unmeasured=filler | ~finite)
-    for bad, what, reason in ((~finite, "IMU message(s) with a NaN or infinite value", "not finite"),
-                              (filler, "all-zero IMU message(s) (a logger's filler: zero specific force is impossible "
-                                       "under gravity; the run bridges the gap left)", IMU_FILLER)):
-        if bad.any():
-            warnings.warn(f"{source}:{s.topic}: {int(bad.sum())} {what} refused (first: "
-                          f"{located(np.flatnonzero(bad), where=where, first=True)})", RuntimeWarning, stacklevel=2)
-            count_refused(meta, "imu", reason, int(bad.sum()))
-    ok = finite & ~filler
-    if not ok.all():
-        check_refused_fraction(meta)
-        t, f, w, where = t[ok], f[ok], w[ok], [x for x, keep in zip(where, ok) if keep]
-    say_imu_stamp_steps(t, t, f"{source}:{s.topic}", STAMP_FIELDS[s.stamp_kind], meta, where=where)
+    topic = f"{source}:{s.topic}"
+    t, f, w, where = refuse_rows(meta, "imu", imu_unmeasured(t, f, w, IMU_MESSAGE_FIELDS, topic), topic, None,
+                                 t, f, w, np.asarray(where, object), where=where)
+    meta["imu_unmeasured_screened"] = True
+    say_imu_stamp_steps(t, t, topic, STAMP_FIELDS[s.stamp_kind], meta, where=list(where))
     if not frame_is(s.rows[0].header.frame_id, "_frd"):
         f, w = f @ FLU_FRD, w @ FLU_FRD
-    return ImuData(t, f, w, f"{source}:{s.topic}")
+    return ImuData(t, f, w, topic)
 
 
 # --- DVL ---------------------------------------------------------------------------------------------------

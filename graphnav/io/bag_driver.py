@@ -19,7 +19,7 @@ from scipy.spatial.transform import Rotation
 from graphnav.core.dvl import beam_matrix
 from graphnav.core.errors import ConfigError
 from graphnav.core.mission import Mission
-from graphnav.io.bag_convert import ENU_NED, FLU_FRD
+from graphnav.io.bag_convert import ENU_NED, FLU_FRD, flu_frd
 from graphnav.io.bag_msgs import DVL_MSGS_DVL_V3, WL_BEAM, WL_DVL, typestore
 
 IMU_TOPIC, DVL_TOPIC, PRESSURE_TOPIC = "/imu/data", "/dvl/data", "/pressure"
@@ -41,7 +41,7 @@ def _imu_messages(mission: Mission, store, t0_ns: int, zero_stamps: bool, ahrs: 
                   heading_sigma_rad: float):
     T = store.types
     V3 = T["geometry_msgs/msg/Vector3"]
-    f, w = mission.imu.f_b @ FLU_FRD, mission.imu.omega_b @ FLU_FRD
+    f, w = flu_frd(mission.imu.f_b), flu_frd(mission.imu.omega_b)
     if gyro_deg:
         w = np.degrees(w)
     if ahrs:

@@ -62,7 +62,7 @@ from graphnav.core.screening import say_close_samples
 from graphnav.core.streams import add_note, count_doubted, count_read, count_refused, set_span
 from graphnav.io import bag_convert as conv
 from graphnav.io import bag_fields
-from graphnav.io.bag_convert import ENU_NED, FLU_FRD, PRESSURE, TWIST_DVL, Stream
+from graphnav.io.bag_convert import ENU_NED, FLU_FRD, PRESSURE, TWIST_DVL, Stream, flu_frd
 from graphnav.io.bag_driver import write_driver_bag  # noqa: F401 - the driver-like bag, next to write_mission_bag
 from graphnav.io.bag_msgs import (DVL_MSGS_DVL_A50, DVL_MSGS_DVL_V3, DVL_MSGS_DVLBEAM,  # noqa: F401
                                   MARINE_ACOUSTIC_DVL, MARINE_DVL, WL_BEAM, WL_DVL, bag_kind, fit_definition,
@@ -715,7 +715,7 @@ def write_mission_bag(mission: Mission, path: str | Path, *, storage: str = "mca
     H = _header
     V3 = T["geometry_msgs/msg/Vector3"]
     msgs: list[tuple[int, str, object]] = []
-    imu_f, imu_w = mission.imu.f_b @ FLU_FRD, mission.imu.omega_b @ FLU_FRD
+    imu_f, imu_w = flu_frd(mission.imu.f_b), flu_frd(mission.imu.omega_b)
     for k, t in enumerate(mission.imu.t):
         t_ns = t0_unix_ns + round(t * 1e9)
         msgs.append((t_ns, "/imu/data", T["sensor_msgs/msg/Imu"](

@@ -610,7 +610,8 @@ def _screened_imu(t: np.ndarray, f_b: np.ndarray, omega_b: np.ndarray, lines: np
     The DVL as read (``dvl``, on the file's clock) tells a knock, which changed its velocity, from bad samples; the
     spans of the knocks kept (``meta["imu_shocks"]``) are put on the mission's clock."""
     t, f_b, omega_b = refuse_rows(meta, "imu", imu_implausible(t, f_b, omega_b, config, fields, meta, str(path),
-                                                               (dvl.t, ping_velocity_b(dvl, config.dvl)), lines),
+                                                               (dvl.t, ping_velocity_b(dvl, config.dvl)), lines,
+                                                               unmeasured=False),
                                   str(path), lines, t, f_b, omega_b)
     meta["imu_screened"] = True
     t0 = meta["t0_s"] = float(t[0])

@@ -260,14 +260,12 @@ def _mission_instrument(mission) -> tuple[dict, str]:
 
 def describe_mission(mission) -> dict:
     """The description of a loaded :class:`~graphnav.core.mission.Mission` (see :func:`describe`)."""
-    from graphnav.core.dvl import DvlGeometry
+    from graphnav.core.dvl import beam_velocity_b
     from graphnav.io.stream_counts import ensure_streams
     streams = ensure_streams(mission)
     inst, frame = _mission_instrument(mission)
     dvl = mission.dvl
-    v = dvl.v_b
-    if v is None:
-        v = DvlGeometry.from_spec(mission.config.dvl).velocity_from_beams(dvl.beams, dvl.valid, allow_missing=True)
+    v = beam_velocity_b(dvl, mission.config.dvl)
     span, duration = _span(streams)
     use = "IMU/DVL estimators: graphnav smooth / online --data PATH"
     refused = _refused_stream(streams)

@@ -1220,10 +1220,13 @@ def screen_mission(mission: Mission) -> Mission:
         if stream is not None and not meta.get("streams", {}).get(name, {}).get("read"):
             count_read(meta, name, stream.t, stream.source, shown_rate_hz(name, stream.t))
     imu, dvl, depth, gt = mission.imu, mission.dvl, mission.depth, mission.gt
+    # a reader that refused the rows holding no measurement itself (a bag's, naming its messages) says so here only
+    unmeasured = not meta.pop("imu_unmeasured_screened", False)
     if not meta.get("imu_screened"):       # a loader that knows the file lines screened the IMU itself
         # the DVL as read tells a knock, which changed its velocity, from a burst of bad samples
         bad = refuse(meta, "imu", imu_implausible(imu.t, imu.f_b, imu.omega_b, cfg, meta=meta, source=imu.source,
-                                                  dvl=(dvl.t, ping_velocity_b(dvl, cfg.dvl))), imu.source, t=imu.t)
+                                                  dvl=(dvl.t, ping_velocity_b(dvl, cfg.dvl)), unmeasured=unmeasured),
+                     imu.source, t=imu.t)
         imu = _kept(meta, "imu", imu, bad)
     beam_bad = beams_out_of_range(dvl.beams, dvl.valid, cfg.dvl)
     masks = {f"beam beyond {cfg.dvl.max_speed_mps:g} m/s": beam_bad.any(axis=1)}
