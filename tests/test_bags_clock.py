@@ -56,6 +56,30 @@ def _load(path):
     return m, [str(w.message) for w in caught]
 
 
+def _latency_ns(rng) -> int:
+    """A DVL driver's latency, 0.25-0.35 s (the receive time after the header stamp)."""
+    return int((0.25 + 0.1 * rng.random()) * NS)
+
+
+def _dvl_stall(rng, last: int, resumed: bool = False):
+    """A change (:func:`_rewritten`) of the DVL's messages: 11 to ``last`` repeat message 10's header stamp (its clock
+    stalled); ``resumed``: the clock then runs on from the value it froze at (the later pings as many seconds early as
+    it stalled); every ping received 0.25-0.35 s after its time."""
+    held = {}
+
+    def change(t, k, msg, rx):
+        if t != "/dvl/data":
+            return rx
+        if k == 10:
+            held["ns"] = _stamp_ns(msg)
+        if 10 < k <= last:
+            _set_stamp(msg, held["ns"])
+        elif resumed and k > last:
+            _set_stamp(msg, _stamp_ns(msg) - (last - 10) * NS)
+        return rx + _latency_ns(rng)
+    return change
+
+
 STREAMS = {"/dvl/data": "dvl", "/pressure": "depth", "/reference/odometry": "gt"}
 
 
@@ -144,17 +168,7 @@ def test_a_dvl_header_clock_stalling_restamps_those_pings_alone(sim, tmp_path):
     rng = np.random.default_rng(2)
 
     def stalled(last):
-        held = {}
-
-        def change(t, k, msg, rx):
-            if t != "/dvl/data":
-                return rx
-            if k == 10:
-                held["ns"] = _stamp_ns(msg)
-            if 10 < k <= last:
-                _set_stamp(msg, held["ns"])
-            return rx + int((0.25 + 0.1 * rng.random()) * NS)
-        return change
+        return _dvl_stall(rng, last)
     m, warned = _load(_rewritten(clean_path, tmp_path / "stall", stalled(14)))
     dt = m.dvl.t - clean.dvl.t
     assert np.all(np.abs(np.delete(dt, np.arange(11, 15))) < 2e-9)
@@ -213,3 +227,117 @@ def test_a_dvl_losing_pings_as_its_latency_drops_keeps_its_header_stamps(tmp_pat
     said = ("/dvl/data, message 75 (t = 22.000 s), field 'header.stamp': the header clock steps +7.200 s while the "
             "receive time steps +2.")
     assert len([w for w in warned if said in w and "s: 10 messages lost by it, the rest the clock's step" in w]) == 1
+
+
+def test_a_dvl_header_clock_resuming_from_its_stall_or_stepping_back_is_repaired_not_dropped(sim, tmp_path):
+    """The DVL's header clock stalls at message 10 for four pings and resumes from the value it froze at (message 15
+    is stamped one second after message 10: every later ping 4 s early), or steps back 5 s at 15 s, while its pings
+    keep arriving every second 0.25-0.35 s after their time. The whole topic went onto the receive time (every ping
+    0.25-0.35 s late, "4 duplicated" / "1 non-monotonic"); now the pings after the step are moved forward onto the
+    clock before it (the stalled ones stamped from their receive time as before), warned naming the message and the
+    field and counted as doubted; the other pings keep their header stamps exactly."""
+    _, clean_path, _ = sim
+    clean, _ = _load(clean_path)
+    n = clean.dvl.t.size
+    rng = np.random.default_rng(3)
+    resumed = _dvl_stall(rng, 14, resumed=True)
+
+    def back(t, k, msg, rx):
+        if t == "/dvl/data" and rx >= T0_NS + 15 * NS:
+            _set_stamp(msg, _stamp_ns(msg) - 5 * NS)
+        return rx + _latency_ns(rng) if t == "/dvl/data" else rx
+    for name, change, stalled, said in (
+            ("resumed", resumed, np.arange(11, 15), "its stamp +1.000 s after message 10's, received +5."),
+            ("back", back, np.zeros(0, int), "its stamp -4.000 s after message 14's, received +1.")):
+        m, warned = _load(_rewritten(clean_path, tmp_path / name, change))
+        assert m.meta["clock"]["stamps"]["dvl"] == "header"
+        dt = m.dvl.t - clean.dvl.t
+        assert np.all(np.abs(np.delete(dt, stalled)) < 2e-9), dt
+        assert np.all(np.abs(dt[stalled]) < 0.06), dt[stalled]
+        doubted = {bag_stamps.HEADER_CLOCK_STEP_BACK: n - 15, **({bag_stamps.HEADER_CLOCK_STALL: 4} if stalled.size
+                                                                  else {})}
+        assert m.meta["streams"]["dvl"]["doubted"] == doubted
+        steps = [w for w in warned if "the header clock steps back" in w]
+        assert len(steps) == 1 and steps[0].startswith(
+            f"{tmp_path / name}:/dvl/data: message 15, field 'header.stamp': the header clock steps back "
+            f"({said}"), steps
+        assert steps[0].endswith("the stamps from this message on are moved forward by 4.000 s onto the clock before "
+                                 "the step" if stalled.size else "moved forward by 5.000 s onto the clock before the "
+                                 "step")
+        assert not [w for w in warned if "receive time is used" in w]
+
+
+@pytest.mark.parametrize("off_s", [-5.0, 5.0])
+def test_a_dvl_header_clock_set_right_mid_bag_moves_the_pings_before_onto_it(sim, tmp_path, off_s):
+    """The DVL's header clock runs 5 s behind (or ahead of) the receive clock for the first 15 pings and is set right
+    at message 15 (an RTC synchronised mid-dive) while its pings keep arriving 0.25-0.35 s after their time. The
+    forward step moved the 15 pings after it back onto the wrong clock (every ping of the second half 5 s early) and
+    the step back put the whole topic on the receive time; now the 15 pings before it are moved onto the clock after
+    it, as a step's pings are (the same rule), warned naming the message and counted as doubted."""
+    _, clean_path, _ = sim
+    clean, _ = _load(clean_path)
+    rng = np.random.default_rng(4)
+
+    def change(t, k, msg, rx):
+        if t != "/dvl/data":
+            return rx
+        if k < 15:
+            _set_stamp(msg, _stamp_ns(msg) + int(off_s * NS))
+        return rx + _latency_ns(rng)
+    path = _rewritten(clean_path, tmp_path / f"set{off_s:+g}", change)
+    m, warned = _load(path)
+    np.testing.assert_allclose(m.dvl.t, clean.dvl.t, atol=2e-9)
+    np.testing.assert_array_equal(m.imu.t, clean.imu.t)
+    assert m.meta["streams"]["dvl"]["doubted"] == {bag_stamps.HEADER_CLOCK_SET_RIGHT: 15}
+    said = [w for w in warned if "set right" in w]
+    assert len(said) == 1 and "message 15" in said[0] and f"{-off_s:+.3f} s onto the clock after" in said[0], said
+
+
+def test_an_imu_losing_samples_as_its_latency_drops_is_told_from_a_clock_step_by_its_sample_grid(sim, tmp_path):
+    """The IMU loses 5 samples at message 1500 as the recorder's latency drops from 60 to 2 ms: the header stamps gap
+    60 ms, the receive time 2 ms, header minus receive time steps +58 ms, as if the header clock stepped. The 1495
+    samples after the loss were moved 50 ms early ("no messages lost"). The header stamps stay on their sample grid
+    across the gap: messages lost, kept as stamped and warned, the gap bridged as any. The header clock stepping
+    +1.5 ms (off the grid) as they are lost is still moved back, the warning saying how many were lost cannot be told;
+    on stamps too uneven (2-3 ms jitter
+    on 10 ms) to tell, the step is moved and the warning says it cannot be told."""
+    from graphnav.core.screening import IMU_GAP
+    _, clean_path, _ = sim
+    clean, _ = _load(clean_path)
+    lost = np.arange(1500, 1505)
+
+    def dropped(t, k, msg, rx):
+        if t != "/imu/data":
+            return rx
+        return None if k in lost else rx + (60 if k < 1500 else 2) * 1_000_000
+    m, warned = _load(_rewritten(clean_path, tmp_path / "dropped", dropped))
+    np.testing.assert_allclose(m.imu.t, np.delete(clean.imu.t, lost), atol=2e-9)
+    assert m.meta["streams"]["imu"]["doubted"] == {IMU_GAP: 1}
+    said = [w for w in warned if "stay on their sample grid" in w]
+    assert len(said) == 1 and said[0].startswith(
+        f"{tmp_path / 'dropped'}: /imu/data, message 1500 (t = 15.050 s), field 'header.stamp': the header stamps gap "
+        "+0.060 s while the receive time steps +0.002 s, yet stay on their sample grid: 5 message(s) lost"), said
+    assert not [w for w in warned if "the header clock steps" in w]
+
+    def stepped(t, k, msg, rx):
+        if t != "/imu/data":
+            return rx
+        if k >= 1500:
+            _set_stamp(msg, _stamp_ns(msg) + 1_500_000)
+        return None if k in lost else rx + (60 if k < 1500 else 4) * 1_000_000
+    m, warned = _load(_rewritten(clean_path, tmp_path / "stepped", stepped))
+    said = [w for w in warned if "message 1500 (t = 15.052 s), field 'header.stamp': the header clock steps +0.06" in w]
+    assert len(said) == 1 and "the stamps leave their sample grid, so the header clock stepped" in said[0], said
+    assert m.meta["streams"]["imu"]["doubted"] == {bag_convert.HEADER_CLOCK_STEP: 1496}
+    rng = np.random.default_rng(6)
+    jitter = {}
+
+    def uneven(t, k, msg, rx):
+        if t != "/imu/data":
+            return rx
+        jitter[k] = int(rng.uniform(-3e6, 3e6))
+        _set_stamp(msg, _stamp_ns(msg) + jitter[k])
+        return None if k in lost else rx + (60 if k < 1500 else 2) * 1_000_000
+    m, warned = _load(_rewritten(clean_path, tmp_path / "uneven", uneven))
+    said = [w for w in warned if "cannot be told from 5 message(s) lost as the recorder's latency dropped" in w]
+    assert len(said) == 1 and "the header clock steps" in said[0], said

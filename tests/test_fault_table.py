@@ -92,11 +92,11 @@ def _damaged_folder(plan) -> Path | None:
 CLEAN_INPUT = {"smooth: clean", "online replay: clean", "online stream: clean", "--out is a file",
                "--out not writable", "online --resume after an interrupt", "evaluate against an A-KIT folder",
                "stream: --stream on a missing file", "stream: a live stream's first 300 s show life",
-               "a diverged run into an existing --out"}
+               "a diverged run into an existing --out", F.BAG}
 
 
 @pytest.mark.parametrize("case", [c for c in CLI_CASES if not c.real], ids=lambda c: c.name)
-def test_every_case_prepares_what_it_says(case, ws, tmp_path):
+def test_every_case_prepares_what_it_says(case, ws, tmp_path, request):
     """Every row: a known verdict expected, a plan to run, and (for damaged inputs) an input that differs from
     the clean one in the stated place."""
     assert set(case.expected) <= VERDICTS and case.expected
@@ -111,11 +111,62 @@ def test_every_case_prepares_what_it_says(case, ws, tmp_path):
                    if _csv(folder, k).shape != _csv(ws.sim_folder, k).shape
                    or not np.array_equal(_csv(folder, k), _csv(ws.sim_folder, k), equal_nan=True)]
         assert changed == [case.name.split(":")[0]]
+    elif case.command == "smooth --data BAG":
+        assert _bag_messages(folder) != request.getfixturevalue("clean_bag_messages")
     elif case.command.startswith("smooth --config"):
         config = Path(plan.steps[0].argv[plan.steps[0].argv.index("--config") + 1])
         assert config.read_text() != ws.sim_config.read_text()
     else:
         assert plan.steps[0].stdin.read_text() != ws.sim_stream.read_text()
+
+
+@pytest.fixture(scope="module")
+def clean_bag_messages(ws, tmp_path_factory):
+    """:func:`_bag_messages` of the table's clean bag."""
+    from graphnav.io.bags import write_mission_bag
+    return _bag_messages(write_mission_bag(ws.sim, tmp_path_factory.mktemp("bag") / "clean", t0_unix_ns=F.BAG_T0_NS))
+
+
+def _bag_messages(path: Path) -> list[tuple[str, int, bytes]]:
+    """(topic, receive ns, serialised message) of every message of a bag."""
+    from rosbags.highlevel import AnyReader
+
+    from graphnav.io.bags import typestore
+    with AnyReader([path], default_typestore=typestore()) as reader:
+        return [(c.topic, t, bytes(raw)) for c, t, raw in reader.messages()]
+
+
+def test_the_bag_cases_are_damaged_as_stated_and_read_with_their_repair(ws, tmp_path):
+    """The damaged-bag rows of the table (a driver that never fills the header stamp, the DVL's header clock
+    stepping +5 s or set right after 5 s behind, IMU messages lost, IMU messages lost as the recorder's latency drops
+    60 -> 2 ms): each bag is damaged as its name says and read with the repair its verdict needs (the clean bag's
+    stamps, a gap where messages were lost, each said)."""
+    import warnings
+
+    from graphnav.io.bags import load_bag
+    by_name = {c.name: c for c in CLI_CASES}
+
+    def read(name):
+        plan = by_name[name].plan(ws, tmp_path / "".join(c if c.isalnum() else "_" for c in name))
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            m = load_bag(_damaged_folder(plan))
+        return m, [str(w.message) for w in caught]
+    clean, _ = read(F.BAG)
+    m, said = read("bag: every header stamp 0 (a driver that never fills it)")
+    assert set(m.meta["clock"]["stamps"].values()) == {"receive"}
+    assert [w for w in said if "all header stamps are zero" in w]
+    np.testing.assert_allclose(m.dvl.t, clean.dvl.t, atol=2e-9)
+    for name, said_as in (("bag: DVL header clock steps +5 s at 60 s, pings keep arriving", "moved back by 5.000 s"),
+                          ("bag: DVL header clock 5 s behind until set right at 60 s", "the clock is set right")):
+        m, said = read(name)
+        np.testing.assert_allclose(m.dvl.t, clean.dvl.t, atol=2e-9)
+        assert [w for w in said if "/dvl/data, message 60" in w and said_as in w], said
+    m, said = read("bag: 0.2 s of IMU messages lost at 60 s")
+    assert clean.imu.t.size - m.imu.t.size == 20 and [w for w in said if "a gap of 0.2 s" in w]
+    m, said = read("bag: 5 IMU messages lost at 60 s as the latency drops 60 -> 2 ms")
+    np.testing.assert_allclose(m.imu.t, np.delete(clean.imu.t, np.arange(6000, 6005)), atol=2e-9)
+    assert [w for w in said if "stay on their sample grid: 5 message(s) lost" in w], said
 
 
 def test_the_damage_is_the_stated_one(ws, tmp_path):

@@ -706,6 +706,8 @@ class Workspace:
         beamsnet: the BeamsNet data folder (train-beams), or None.
         clean: the result (VRMSE, m/s) of each clean case, filled in as they run.
         clean_warnings: the warning shapes of each clean case (what is not new in a damaged run).
+        sim_bag_gt: the ground truth of the simulated mission recorded as a bag, as the bag reader loads it (set by
+            the clean bag case, which runs first).
     """
 
     root: Path
@@ -722,6 +724,7 @@ class Workspace:
     clean_warnings: dict = dataclasses.field(default_factory=dict)
     clean_wall: dict = dataclasses.field(default_factory=dict)
     skipped: list = dataclasses.field(default_factory=list)
+    sim_bag_gt: object = None
 
 
 #: Length of the simulated mission of the table, s (short: the whole table runs in about 3 minutes).
@@ -840,6 +843,68 @@ def _akit_case(ws: Workspace, folder: Path, real: bool, damage: Callable[[Path],
         argv += ["--config", str(config)]
     result = out / ("online.csv" if command == "online" else "trajectory.csv")
     return Plan([Step(argv)], result, reference=ws.real_gt if real else ws.sim_folder_gt)
+
+
+#: The Unix time the table's bags start at, ns.
+BAG_T0_NS = 1_700_000_000_000_000_000
+
+
+def _bag_case(ws: Workspace, folder: Path, change: Callable | None) -> Plan:
+    """The simulated mission recorded as a ROS 2 bag (MCAP, received at its stamps from :data:`BAG_T0_NS`), each
+    message through ``change(topic, k, msg, receive_ns)`` (:func:`graphnav.io.bags.write_mission_bag`), through
+    ``graphnav smooth``; scored against the clean bag's reference as the bag reader loads it."""
+    from graphnav.io.bags import load_bag, write_mission_bag
+    folder.mkdir(parents=True, exist_ok=True)
+    bag = write_mission_bag(ws.sim, folder / "bag", t0_unix_ns=BAG_T0_NS, change=change)
+    if ws.sim_bag_gt is None:
+        clean = bag if change is None else write_mission_bag(ws.sim, folder / "clean", t0_unix_ns=BAG_T0_NS)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            ws.sim_bag_gt = load_bag(clean).gt
+    out = folder / "out"
+    argv = ["smooth", "--data", str(bag), "--out", str(out), "--no-plots", "--config", str(ws.sim_config)]
+    return Plan([Step(argv)], out / "trajectory.csv", reference=ws.sim_bag_gt)
+
+
+def _bag_stamp_ns(msg) -> int:
+    return int(msg.header.stamp.sec) * 1_000_000_000 + int(msg.header.stamp.nanosec)
+
+
+def _set_bag_stamp(msg, ns: int) -> None:
+    msg.header.stamp.sec, msg.header.stamp.nanosec = ns // 1_000_000_000, ns % 1_000_000_000
+
+
+def _bag_ns(t_s: float) -> int:
+    """The receive time of a message of the table's bag at mission time ``t_s``, ns."""
+    return BAG_T0_NS + round(t_s * 1e9)
+
+
+def _zero_stamps(topic, k, msg, rx):
+    """A driver that never fills ``header.stamp``: every message stamped 0."""
+    _set_bag_stamp(msg, 0)
+    return rx
+
+
+def _dvl_clock_off(step_s: float, at_s: float, before: bool = False):
+    """The DVL's header clock ``step_s`` off from ``at_s`` on (``before``: until ``at_s``, then set right), its pings
+    arriving as before."""
+    def change(topic, k, msg, rx):
+        if topic == "/dvl/data" and (rx < _bag_ns(at_s)) == before:
+            _set_bag_stamp(msg, _bag_stamp_ns(msg) + round(step_s * 1e9))
+        return rx
+    return change
+
+
+def _imu_lost(t0_s: float, t1_s: float, latency_s: tuple[float, float] = (0.0, 0.0)):
+    """The IMU messages received in [t0_s, t1_s) lost; the others received ``latency_s`` after their stamp (before,
+    after the loss)."""
+    def change(topic, k, msg, rx):
+        if topic != "/imu/data":
+            return rx
+        if _bag_ns(t0_s) <= rx < _bag_ns(t1_s):
+            return None
+        return rx + round(latency_s[rx >= _bag_ns(t1_s)] * 1e9)
+    return change
 
 
 def _with_config(ws: Workspace, folder: Path, change: Callable[[dict], object] | str) -> Plan:
@@ -1279,7 +1344,7 @@ def _shift_stamps(seconds):
 
 
 E, W, K, D = (CLEAR_ERROR,), (WARNING,), (OK,), (DEGRADED,)
-S, R = "smooth: clean", "smooth (real): clean"
+S, R, BAG = "smooth: clean", "smooth (real): clean", "bag: clean"
 _DVL_XYZ = slice(1, 4)
 
 
@@ -1289,6 +1354,10 @@ def _sim(name, command, expected, damage=None, **kw):
 
 def _real(name, command, expected, damage=None):
     return CliCase(name, command, expected, lambda ws, f: _akit_case(ws, f, True, damage), R, real=True)
+
+
+def _bag(name, expected, change=None):
+    return CliCase(name, "smooth --data BAG", expected, lambda ws, f: _bag_case(ws, f, change), BAG)
 
 
 def _cfg(name, expected, change):
@@ -1354,6 +1423,13 @@ CLI_CASES: tuple[CliCase, ...] = (
     _sim("GT: latitude and longitude in degrees", "smooth", W,
          _damage("GT", _scale_cols(slice(1, 3), np.degrees(1.0)))),
     _sim("GT: clock 3 days from the IMU", "smooth", W, _damage("GT", _shift_stamps(3 * 86400.0))),
+    # a ROS 2 bag of the simulated mission, as a driver and a recorder damage it
+    _bag(BAG, K),
+    _bag("bag: every header stamp 0 (a driver that never fills it)", W, _zero_stamps),
+    _bag("bag: DVL header clock steps +5 s at 60 s, pings keep arriving", W, _dvl_clock_off(5.0, 60.0)),
+    _bag("bag: DVL header clock 5 s behind until set right at 60 s", W, _dvl_clock_off(-5.0, 60.0, before=True)),
+    _bag("bag: 0.2 s of IMU messages lost at 60 s", W, _imu_lost(60.0, 60.2)),
+    _bag("bag: 5 IMU messages lost at 60 s as the latency drops 60 -> 2 ms", W, _imu_lost(60.0, 60.05, (0.06, 0.002))),
     # configuration
     _cfg("config: {}", W + K, "{}"),
     _cfg("config: []", E, "[]"),

@@ -25,6 +25,8 @@ from graphnav.core.screening import (EXACT_COPY, MAX_STAMP_GAP_S, NUDGED_COPY, e
                                      say_nudged_copies)
 from graphnav.core.streams import add_note, count_refused, say_doubted
 from graphnav.io import bag_fields
+from graphnav.io.bag_stamps import (HEADER_CLOCK_SET_RIGHT, HEADER_CLOCK_STEP, HEADER_STEP_SPREADS, HEADER_STEP_WINDOW,
+                                    latency_drop, latency_step, nearer_the_receive_clock, on_the_grid, set_right)
 from graphnav.io.bag_msgs import MARINE_DVL, WL_DVL
 
 #: FLU <-> FRD (its own inverse) and ENU <-> NED (its own inverse).
@@ -233,14 +235,6 @@ def _rel(s: Stream, t0_ns: int) -> np.ndarray:
 
 
 # --- IMU ---------------------------------------------------------------------------------------------------
-#: A stepped header clock is judged against the receive clock over this many messages either side of the step: the
-#: medians of header minus receive time there (the recorder's latency, which jitters) must differ by the step.
-HEADER_STEP_WINDOW = 100
-#: The spread of that latency (median absolute deviation before the step) a step must exceed this many times over.
-HEADER_STEP_SPREADS = 10.0
-HEADER_CLOCK_STEP = "stamped after a step of the header clock the receive clock does not show (moved back)"
-
-
 def header_clock_steps_removed(s: Stream, source: str, meta: dict, steps: list | None = None, kind: str = "imu"
                                ) -> Stream:
     """``s`` (a topic on its header stamps, read for stream ``kind``: the IMU, DVL, depth, heading or reference) with
@@ -249,13 +243,18 @@ def header_clock_steps_removed(s: Stream, source: str, meta: dict, steps: list |
     the messages kept arriving at the period (header minus receive time steps by the gap and stays there) no message
     was lost: the topic's clock stepped (+5 s, or days: a driver's clock reset), and the stamps from that message on
     are moved back so the step lasts as many periods as the receive time says passed (one, or two: one message
-    lost). Each step is warned about naming the topic, the message, its time and the field, and its messages counted
-    as doubted on ``kind`` in ``meta``; a gap the receive time shares too (messages lost, or the recorder's clock
-    stepping with it), or does in part (:data:`GAP_WARN_SAMPLES` messages lost or more by the receive time) while
-    header minus receive time comes nearer 0 (a latency dropping as they are lost: a driver restarted, a backlog
-    flushed) is left as it is (an IMU's to
-    :func:`graphnav.core.screening.say_imu_stamp_steps`). Each step moved back is appended to ``steps`` (when given)
-    as (the receive time of its first message, ns; the stamps' shift, ns) for :func:`shared_clock_step_removed`."""
+    lost). A topic other than the IMU's whose clock was another clock before the step and is set right by it
+    (:func:`graphnav.io.bag_stamps.set_right`) has the stamps before it moved onto the clock after it instead. Each
+    step is warned about naming the topic, the message, its time and the field, and its messages counted as doubted
+    on ``kind`` in ``meta``; a gap the receive time shares too (messages lost, or the recorder's clock stepping with
+    it), or does in part (:data:`GAP_WARN_SAMPLES` messages lost or more by the receive time) while header minus
+    receive time comes nearer 0 (a latency dropping as they are lost: a driver restarted, a backlog flushed) is left
+    as it is (an IMU's to :func:`graphnav.core.screening.say_imu_stamp_steps`). A step the receive time does not
+    share that may as well be messages lost as the recorder's latency dropped by as much
+    (:func:`graphnav.io.bag_stamps.latency_drop`) is told by the sample grid: stamps staying on it across the gap are
+    messages lost (left, warned), stamps leaving it a clock step (moved); stamps too uneven to tell are moved, the
+    warning saying it could not be told. Each step moved back is appended to ``steps`` (when given) as (the receive
+    time of its first message, ns; the stamps' shift, ns) for :func:`shared_clock_step_removed`."""
     from graphnav.core.imu_timing import GAP_WARN_SAMPLES, imu_step_stats
     if s.stamp_kind != "header" or s.receive_ns is None or len(s.t_ns) < 3:
         return s
@@ -267,31 +266,64 @@ def header_clock_steps_removed(s: Stream, source: str, meta: dict, steps: list |
     latency = (t_ns - rx_ns) / 1e9      # moved with the stamps: computed once (a gap per second over hours)
     moved = 0
     for i in np.flatnonzero(np.diff(t_ns) / 1e9 >= GAP_WARN_SAMPLES * period):
-        step, spread = _latency_step(latency, i + 1)
+        step, spread = latency_step(latency, i + 1)
         if step < max(GAP_WARN_SAMPLES * period, HEADER_STEP_SPREADS * spread):
             continue
         jump = (t_ns[i + 1] - t_ns[i]) / 1e9
         periods = max(1, round((jump - step) / period))
-        if periods - 1 >= GAP_WARN_SAMPLES and _nearer_the_receive_clock(latency, i + 1, step):
+        if periods - 1 >= GAP_WARN_SAMPLES and nearer_the_receive_clock(latency, i + 1, step):
             # messages lost (the receive time gaps too) as header and receive time came closer: a latency dropping
             # as they were lost (a driver restarted, a backlog flushed) reads as the header clock stepping
             continue
-        shift_ns = int(round((jump - periods * period) * 1e9))
-        t_ns[i + 1:] -= shift_ns
-        latency[i + 1:] -= shift_ns / 1e9
-        moved += 1
-        if steps is not None:
-            steps.append((int(rx_ns[i + 1]), shift_ns))
-        at = _named(np.array([i + 1 if s.index is None else s.index[i + 1]]), t_ns[i + 1:i + 2] + shift_ns, t_ns[0])[0]
+        at_i = _named(np.array([i + 1 if s.index is None else s.index[i + 1]]), t_ns[i + 1:i + 2], t_ns[0])[0]
         rx_s = (rx_ns[i + 1] - rx_ns[i]) / 1e9
+        lost_n = round(jump / period) - 1
+        untold = ""
+        if latency_drop(latency, i + 1, step):
+            grid = on_the_grid(t_ns, i + 1, period)
+            if grid:
+                _say_lost_as_latency_dropped(s, at_i, jump, rx_s, step, lost_n, kind, source, meta)
+                continue
+            untold = ("; it cannot be told from {} message(s) lost as the recorder's latency dropped {:.3f} s: the "
+                      "header stamps are too uneven to say whether they stay on their sample grid"
+                      if grid is None else "; the stamps leave their sample grid, so the header clock stepped, but "
+                      "whether some of the {} period(s) were messages lost as the recorder's latency dropped {:.3f} s "
+                      "cannot be told").format(lost_n, step)
+        shift_ns = int(round((jump - periods * period) * 1e9))
         lost = ("while the messages kept arriving (receive time {:+.3f} s): no messages lost" if periods == 1 else
                 f"while the receive time steps {{:+.3f}} s: {periods - 1} messages lost by it, the rest the clock's "
+                "step").format(rx_s)
+        moved += 1
+        if kind != "imu" and set_right(latency, i + 1, step):
+            before = float(np.median(latency[max(0, i + 1 - HEADER_STEP_WINDOW):i + 1]))
+            t_ns[:i + 1] += shift_ns
+            latency[:i + 1] += shift_ns / 1e9
+            text = (f"{s.topic}, {at_i}, field '{STAMP_FIELDS['header']}': the header clock steps {jump:+.3f} s "
+                    f"{lost}, header minus receive time {before:+.3f} s before it and {before + step:+.3f} s after: "
+                    f"the clock is set right here; the {i + 1} stamp(s) before this message are moved by "
+                    f"{shift_ns / 1e9:+.3f} s onto the clock after the step")
+            say_doubted(meta, kind, source, text + untold, HEADER_CLOCK_SET_RIGHT, i + 1, stacklevel=2)
+            continue
+        t_ns[i + 1:] -= shift_ns
+        latency[i + 1:] -= shift_ns / 1e9
+        if steps is not None:
+            steps.append((int(rx_ns[i + 1]), shift_ns))
+        text = (f"{s.topic}, {at_i}, field '{STAMP_FIELDS['header']}': the header clock steps {jump:+.3f} s {lost}; "
+                f"the stamps from this message on are moved back by {shift_ns / 1e9:.3f} s onto the clock before the "
                 "step")
-        text = (f"{s.topic}, {at}, field '{STAMP_FIELDS['header']}': the header clock steps {jump:+.3f} s "
-                f"{lost.format(rx_s)}; the stamps from this message on are moved back by {shift_ns / 1e9:.3f} s onto "
-                "the clock before the step")
-        say_doubted(meta, kind, source, text, HEADER_CLOCK_STEP, len(t_ns) - i - 1, stacklevel=2)
+        say_doubted(meta, kind, source, text + untold, HEADER_CLOCK_STEP, len(t_ns) - i - 1, stacklevel=2)
     return dataclasses.replace(s, t_ns=t_ns) if moved else s
+
+
+def _say_lost_as_latency_dropped(s: Stream, at: str, jump: float, rx_s: float, step: float, lost_n: int, kind: str,
+                                 source: str, meta: dict) -> None:
+    """Warn about and note a gap of a topic's header stamps the receive time does not show that stays on the sample
+    grid: messages lost as the recorder's latency dropped, kept as stamped (the gap left to the stream's own checks)."""
+    text = (f"{s.topic}, {at}, field '{STAMP_FIELDS['header']}': the header stamps gap {jump:+.3f} s while the receive "
+            f"time steps {rx_s:+.3f} s, yet stay on their sample grid: {lost_n} message(s) lost as the recorder's "
+            f"latency dropped {step:.3f} s, not a step of the header clock; the header stamps are kept")
+    warnings.warn(f"{source}: {text}", RuntimeWarning, stacklevel=3)
+    add_note(meta, kind, text)
 
 
 def check_stamp_jump(s: Stream, t0_ns: int, source: str) -> None:
@@ -316,22 +348,6 @@ def check_stamp_jump(s: Stream, t0_ns: int, source: str) -> None:
     raise DataError(f"{at}: {why}", f"{source}:{s.topic}", None, STAMP_FIELDS[s.stamp_kind])
 
 
-def _nearer_the_receive_clock(latency: np.ndarray, k: int, step: float) -> bool:
-    """Whether header minus receive time ``latency`` (s) is nearer 0 after message ``k`` than before it, where it
-    steps by ``step`` (s, :func:`_latency_step`): the recorder's latency dropped, or a clock off the receive clock
-    set right."""
-    before = float(np.median(latency[max(0, k - HEADER_STEP_WINDOW):k]))
-    return abs(before + step) < abs(before)
-
-
-def _latency_step(latency: np.ndarray, k: int) -> tuple[float, float]:
-    """How far header minus receive time, s, steps at message ``k`` (the medians over :data:`HEADER_STEP_WINDOW`
-    messages either side), and its spread before it (median absolute deviation), s."""
-    before, after = latency[max(0, k - HEADER_STEP_WINDOW):k], latency[k:k + HEADER_STEP_WINDOW]
-    return (float(np.median(after) - np.median(before)),
-            float(np.median(np.abs(before - np.median(before)))))
-
-
 def shared_clock_step_removed(s: Stream, steps: list, kind: str, source: str, meta: dict) -> Stream:
     """``s`` (a topic other than the IMU's, on its header stamps) with the IMU's header clock steps ``steps`` (from
     :func:`header_clock_steps_removed`) taken out where its own header clock stepped with the IMU's: a time-sync
@@ -353,7 +369,7 @@ def shared_clock_step_removed(s: Stream, steps: list, kind: str, source: str, me
         # the first message on the new clock: a message stamped just before the step may be received just after it
         near = np.arange(max(1, j - 2), min(len(t_ns), j + 3))
         k = int(near[np.argmax(np.diff(latency)[near - 1])])
-        step, spread = _latency_step(latency, k)
+        step, spread = latency_step(latency, k)
         shift = shift_ns / 1e9
         if abs(step - shift) > max(HEADER_STEP_SPREADS * spread, 0.1 * abs(shift)):
             continue

@@ -3,9 +3,13 @@
 Per stream (:func:`choose_stamps`): the header stamps (the time of validity) when they are sane: none zero,
 strictly increasing. A topic other than the IMU's whose header clock stalls for a few messages (repeats one
 stamp while the receive time runs on) keeps its header stamps but for those messages, stamped from their receive
-time (:func:`stall_restamped`). Otherwise the bag's receive time (when the recorder got the message), with a warning
-and a note in ``Mission.meta["streams"]`` saying which and why: drivers that leave the stamp at zero, stamp a
-burst of samples with one time, or stamp from a clock that jumps. Samples that even the receive time cannot
+time (:func:`stall_restamped`). A topic whose header clock steps back (or resumes from the value it stalled at)
+while its messages keep arriving keeps its header stamps, those after the step moved forward onto the clock before it
+(:func:`steps_back_repaired`); a topic other than the IMU's whose header clock was another clock and is set right
+there has those before it moved onto the clock after it instead (:func:`set_right`). Otherwise the bag's receive
+time (when the recorder got the message), with a warning and a note in ``Mission.meta["streams"]`` saying which and
+why: drivers that leave the stamp at zero, stamp a burst of samples with one time, or stamp from a clock that
+jumps. Samples that even the receive time cannot
 order (two messages received in the same nanosecond) are dropped and counted.
 
 Between streams (:func:`compare_clocks`): each stream's header clock is compared with the receive clock
@@ -24,6 +28,151 @@ from graphnav.core.streams import add_note, count_refused, say_doubted
 #: Offsets between a stream's header clock and the bag's receive clock below this are latency, not another
 #: clock, s (a driver's latency is milliseconds to a second).
 CLOCK_OFFSET_NOTE_S = 1.0
+
+
+#: A stepped header clock is judged against the receive clock over this many messages either side of the step: the
+#: medians of header minus receive time there (the recorder's latency, which jitters) must differ by the step.
+HEADER_STEP_WINDOW = 100
+#: The spread of that latency (median absolute deviation before the step) a step must exceed this many times over.
+HEADER_STEP_SPREADS = 10.0
+HEADER_CLOCK_STEP = "stamped after a step of the header clock the receive clock does not show (moved back)"
+HEADER_CLOCK_STEP_BACK = "stamped after a step back of the header clock the receive clock does not show (moved forward)"
+HEADER_CLOCK_SET_RIGHT = "stamped before the header clock was set right (moved onto the clock after)"
+#: Header stamps resolve their sample grid when their jitter about it is under this share of the period; a gap of
+#: them is then on the grid within the larger of 4 jitters and a hundredth of the period.
+GRID_JITTER_SHARE = 0.1
+#: More steps back than this in one topic are not a clock's steps (a driver's out-of-order packets): not repaired.
+MAX_STEPS_BACK = 20
+
+
+def latency_step(latency: np.ndarray, k: int) -> tuple[float, float]:
+    """How far header minus receive time ``latency`` (s) steps at message ``k`` (the medians over
+    :data:`HEADER_STEP_WINDOW` messages either side), and its spread before it (median absolute deviation), s."""
+    before, after = latency[max(0, k - HEADER_STEP_WINDOW):k], latency[k:k + HEADER_STEP_WINDOW]
+    return (float(np.median(after) - np.median(before)),
+            float(np.median(np.abs(before - np.median(before)))))
+
+
+def _latency_before(latency: np.ndarray, k: int) -> float:
+    return float(np.median(latency[max(0, k - HEADER_STEP_WINDOW):k]))
+
+
+def nearer_the_receive_clock(latency: np.ndarray, k: int, step: float) -> bool:
+    """Whether header minus receive time ``latency`` (s) is nearer 0 after message ``k`` than before it, where it
+    steps by ``step`` (s, :func:`latency_step`): the recorder's latency dropped, or a clock off the receive clock
+    set right."""
+    before = _latency_before(latency, k)
+    return abs(before + step) < abs(before)
+
+
+def set_right(latency: np.ndarray, k: int, step: float) -> bool:
+    """Whether a topic's header clock was set right at message ``k``, where header minus receive time ``latency`` (s)
+    steps by ``step`` (s): off the receive clock by more than a latency (:data:`CLOCK_OFFSET_NOTE_S`) before it, within
+    a latency after it. The stamps before it are then the wrong ones."""
+    before = _latency_before(latency, k)
+    return abs(before) > CLOCK_OFFSET_NOTE_S >= abs(before + step)
+
+
+def latency_drop(latency: np.ndarray, k: int, step: float) -> bool:
+    """Whether a step ``step`` (s) of header minus receive time ``latency`` (s) at message ``k`` may be the recorder's
+    latency dropping (a backlog flushed) rather than the header clock stepping: a latency (within
+    :data:`CLOCK_OFFSET_NOTE_S`) on both sides, of one sign, nearer 0 after."""
+    before = _latency_before(latency, k)
+    after = before + step
+    return abs(before) <= CLOCK_OFFSET_NOTE_S and abs(after) < abs(before) and before * after >= 0
+
+
+def on_the_grid(t_ns: np.ndarray, k: int, period_s: float) -> bool | None:
+    """Whether the header stamps ``t_ns`` (ns) from message ``k`` on stay on the sample grid of the
+    :data:`HEADER_STEP_WINDOW` stamps before it (their median phase within the larger of 4 jitters and a hundredth of
+    the period ``period_s``, s): a gap on the grid is whole samples lost, a clock's step rarely is. None when the
+    stamps are too uneven to tell (jitter about their grid beyond :data:`GRID_JITTER_SHARE` of the period)."""
+    before = np.asarray(t_ns[max(0, k - HEADER_STEP_WINDOW):k], np.int64)
+    after = np.asarray(t_ns[k:k + HEADER_STEP_WINDOW], np.int64)
+    if before.size < 3 or not after.size:
+        return None
+
+    def phase(x: np.ndarray) -> np.ndarray:
+        r = (x - before[-1]) / 1e9 / period_s
+        return (r - np.round(r)) * period_s
+    ref = float(np.median(phase(before)))
+    jitter = 1.4826 * float(np.median(np.abs(phase(before) - ref)))
+    if jitter > GRID_JITTER_SHARE * period_s:
+        return None
+    off = float(np.median(phase(after))) - ref
+    off -= round(off / period_s) * period_s
+    return abs(off) <= max(4.0 * jitter, 0.01 * period_s)
+
+
+def steps_back_repaired(header_ns: np.ndarray, receive_ns: np.ndarray, stream: str, stalled: np.ndarray | None
+                        ) -> tuple[np.ndarray, list[dict]] | None:
+    """``header_ns`` (ns) with each step back of the topic's header clock the receive clock ``receive_ns`` (ns) does
+    not show taken out: a stamp at or before the one before it, or the first after a stall (``stalled``, from
+    :func:`stall_restamped`: a clock that resumes from the value it froze at rather than jumping ahead), where header
+    minus receive time drops by over half a period and :data:`HEADER_STEP_SPREADS` of its spread, judged over
+    :data:`HEADER_STEP_WINDOW` messages either side. The stamps from that message on are moved forward so the step
+    lasts as many periods as the receive time says passed, or, for a topic other than the IMU's whose clock was set
+    right there (:func:`set_right`), those before it back onto the clock after. Stalled messages are left for
+    :func:`_stall_stamps`. None when nothing was repaired; else (the stamps, one dict per step: ``k`` the message,
+    ``prev`` the message before it judged, ``jump_s``, ``rx_s``, ``shift_s`` (the stamps' move), ``before`` True
+    when the messages before it moved, ``n`` how many moved, ``latency_s`` header minus receive time before and
+    after)."""
+    if stream != "imu" and stalled is None and np.any(np.diff(header_ns) == 0):
+        return None         # a stall :func:`stall_restamped` did not take (bursts, copies): not a clock's step
+    if len(header_ns) < 3 or np.any(header_ns == 0):
+        return None
+    ok = np.arange(len(header_ns)) if stalled is None else np.flatnonzero(~stalled)
+    t, rx = header_ns[ok].copy(), receive_ns[ok]
+    d = np.diff(t)
+    cand = np.flatnonzero(d <= 0) + 1
+    if stalled is not None:
+        cand = np.union1d(cand, np.flatnonzero(np.diff(ok) > 1) + 1)
+    if not cand.size or cand.size > MAX_STEPS_BACK or not np.any(d > 0):
+        return None
+    period = float(np.median(d[d > 0])) / 1e9
+    latency = (t - rx) / 1e9
+    done = []
+    for j in cand:
+        step, spread = latency_step(latency, j)
+        if -step < max(period / 2, HEADER_STEP_SPREADS * spread):
+            continue
+        jump = (t[j] - t[j - 1]) / 1e9
+        periods = max(1, round((jump - step) / period))
+        shift_ns = int(round((jump - periods * period) * 1e9))
+        before = stream != "imu" and set_right(latency, j, step)
+        lat = (_latency_before(latency, j), _latency_before(latency, j) + step)
+        if before:
+            t[:j] += shift_ns
+            latency[:j] += shift_ns / 1e9
+        else:
+            t[j:] -= shift_ns
+            latency[j:] -= shift_ns / 1e9
+        done.append({"k": int(ok[j]), "prev": int(ok[j - 1]), "jump_s": jump, "rx_s": (rx[j] - rx[j - 1]) / 1e9,
+                     "shift_s": (shift_ns if before else -shift_ns) / 1e9, "before": before,
+                     "n": int(ok[j]) if before else len(header_ns) - int(ok[j]), "latency_s": lat})
+    if not done:
+        return None
+    out = header_ns.copy()
+    out[ok] = t
+    return out, done
+
+
+def _say_steps_back(steps: list[dict], meta: dict, stream: str, label: str) -> None:
+    """Warn about and count each step back :func:`steps_back_repaired` took out."""
+    for s in steps:
+        at = f"message {s['k']}, field 'header.stamp': "
+        seen = (f"(its stamp {s['jump_s']:+.3f} s after message {s['prev']}'s, received {s['rx_s']:+.3f} s after it; "
+                f"header minus receive time {s['latency_s'][0]:+.3f} s before, {s['latency_s'][1]:+.3f} s after)")
+        if s["before"]:
+            text = (f"{at}the header clock is set right {seen}: another clock before this message, the recorder's "
+                    f"latency from it on; the {s['n']} stamp(s) before it are moved by {s['shift_s']:+.3f} s onto "
+                    "the clock after")
+            reason = HEADER_CLOCK_SET_RIGHT
+        else:
+            text = (f"{at}the header clock steps back {seen} while the messages kept arriving; the stamps from this "
+                    f"message on are moved forward by {s['shift_s']:.3f} s onto the clock before the step")
+            reason = HEADER_CLOCK_STEP_BACK
+        say_doubted(meta, stream, label, text, reason, s["n"], stacklevel=3)
 
 
 def _why_not_header(header_ns: np.ndarray) -> str | None:
@@ -99,9 +248,14 @@ def choose_stamps(header_ns: np.ndarray | None, receive_ns: np.ndarray, meta: di
         if why is None:
             return header_ns, np.arange(len(header_ns)), "header"
         stalled = stall_restamped(header_ns, receive_ns, stream)
+        back = steps_back_repaired(header_ns, receive_ns, stream, stalled)
+        t_ns = header_ns if back is None else back[0]
         if stalled is not None:
-            t_ns, latency_s = _stall_stamps(header_ns, receive_ns, stalled)
-            if np.all(np.diff(t_ns) > 0):
+            t_ns, latency_s = _stall_stamps(t_ns, receive_ns, stalled)
+        if (stalled is not None or back is not None) and np.all(np.diff(t_ns) > 0):
+            if back is not None:
+                _say_steps_back(back[1], meta, stream, label)
+            if stalled is not None:
                 k = int(np.flatnonzero(stalled)[0])
                 say_doubted(meta, stream, label, f"message {k}, field 'header.stamp': the header clock stalls: "
                             f"{int(stalled.sum())} message(s) repeat the stamp before them while the receive time "
@@ -109,7 +263,7 @@ def choose_stamps(header_ns: np.ndarray | None, receive_ns: np.ndarray, meta: di
                             f"stamped from their receive time plus the topic's latency around them ({latency_s:+.3f} "
                             "s), the others keep their header stamps", HEADER_CLOCK_STALL, int(stalled.sum()),
                             stacklevel=2)
-                return t_ns, np.arange(len(header_ns)), "header"
+            return t_ns, np.arange(len(header_ns)), "header"
     note = f"stamps: {why}; the bag's receive time is used"
     add_note(meta, stream, note)
     if header_ns is not None:

@@ -703,11 +703,13 @@ def write_odometry_bag(solution, path: str | Path, *, t0_unix_ns: int = 0, topic
 
 def write_mission_bag(mission: Mission, path: str | Path, *, storage: str = "mcap", dvl_type: str = MARINE_DVL,
                       t0_unix_ns: int = 1_700_000_000_000_000_000, depth_as_pressure: bool = True,
-                      gt: bool = True, imu_clock_offset_s: float = 0.0) -> Path:
+                      gt: bool = True, imu_clock_offset_s: float = 0.0, change=None) -> Path:
     """Record a mission as a ROS 2 bag the way a vehicle would (REP-103 FLU IMU, the DVL in its own frame,
     pressure, reference odometry): for tests, demos and handing simulated missions to ROS tools. Every message
     is received at its mission time ``t0_unix_ns + t``; ``imu_clock_offset_s`` (s) puts the IMU's header stamps
-    on a clock that far from the other streams' (an IMU whose clock never synchronised)."""
+    on a clock that far from the other streams' (an IMU whose clock never synchronised). ``change(topic, k, msg,
+    receive_ns)`` (``k``: the message's index in its topic), when given, may alter each message (its header stamp, a
+    value) and returns its receive time, ns, or None to leave it out: a damaged recording (``graphnav faults``)."""
     path = Path(path)
     store = typestore()
     T = store.types
@@ -780,6 +782,8 @@ def write_mission_bag(mission: Mission, path: str | Path, *, storage: str = "mca
     types = {"/imu/data": "sensor_msgs/msg/Imu", "/dvl/data": dvl_type,
              "/pressure": "sensor_msgs/msg/FluidPressure", "/depth": "std_msgs/msg/Float64",
              "/reference/odometry": "nav_msgs/msg/Odometry", "/gnss/fix": NAVSATFIX}
+    if change is not None:
+        msgs = _changed(msgs, change)
     msgs.sort(key=lambda m: m[0])
     with _writer(path, storage) as writer:
         conns = {topic: writer.add_connection(topic, typ, typestore=store) for topic, typ in types.items()
@@ -787,3 +791,16 @@ def write_mission_bag(mission: Mission, path: str | Path, *, storage: str = "mca
         for t_ns, topic, msg in msgs:
             writer.write(conns[topic], t_ns, store.serialize_cdr(msg, types[topic]))
     return path
+
+
+def _changed(msgs: list[tuple[int, str, object]], change) -> list[tuple[int, str, object]]:
+    """``msgs`` (receive ns, topic, message; each topic's in its order) through ``change`` (see
+    :func:`write_mission_bag`), those it returns None for left out."""
+    seen: dict[str, int] = {}
+    out = []
+    for t_ns, topic, msg in msgs:
+        k = seen[topic] = seen.get(topic, -1) + 1
+        rx = change(topic, k, msg, t_ns)
+        if rx is not None:
+            out.append((int(rx), topic, msg))
+    return out
