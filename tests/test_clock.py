@@ -1102,3 +1102,73 @@ def test_only_imu_gaps_the_run_bridges_leave_windows_out(sim_200):
         first, last = model.t[:, 0] + offset, model.t[:, -1] + offset
         assert not np.any(used & (first < 80.3) & (last > 80.0))
         assert np.all(used[(last < 80.0) | (first > 80.3)][:-1])
+
+
+def test_a_clock_window_across_an_imu_gap_keeps_its_pings_either_side(sim_200):
+    """The clock search's window across a 0.3 s IMU gap is cut there, as at the IMU's ends: the pings stamped inside
+    the gap are left out and those either side are fitted as parts of their own (own v0, g0 and straight line), where
+    the window was left out whole before; the DVL checks' whole windows are still left out."""
+    from graphnav.calibration.clock import clock_model
+    imu = _imu_without(sim_200.imu, 80.0, 0.3)
+    model = clock_model(imu, sim_200.dvl, sim_200.config)
+    for offset in (-10.0, -8.0):                  # pings at 70-89 s and 72-91 s on the IMU clock: 11 / 9 either side
+        use = model.pings(offset)
+        t = model.t + offset
+        across = (t[:, 0] < 80.0) & (t[:, -1] > 80.3)
+        assert across.sum() == 1 and use[across].sum() == model.window
+        parts = model.segments(offset, use)
+        assert parts is not None and np.all(parts[across].any(axis=1))
+        assert np.all(t[across][parts[across][..., 0]] <= 80.0) and np.all(t[across][parts[across][..., 1]] >= 80.3)
+    # at a window's edge: the ping at 80 s alone before the gap is too few for a part, the 19 after it are fitted
+    use = model.pings(0.0)
+    edge = model.t[:, 0] == 80.0
+    assert use[edge].sum() == model.window - 1 and not use[edge][0, 0]
+    # a ping stamped inside the gap is left out, its window's other pings kept
+    use, t = model.pings(-9.85), model.t - 9.85
+    assert not np.any(use & (t > 80.0) & (t < 80.3)) and use[(t[:, 0] < 80.0) & (t[:, -1] > 80.3)].sum() == 19
+
+
+@pytest.mark.parametrize("start", [2.0, 7.3])
+def test_a_dvl_late_beside_an_imu_losing_a_second_every_20_s_is_found(sim_200, start):
+    """1 s of IMU rows missing every 20 s puts a gap in every 20 s window: each window across one was left out, so the
+    200 s log, its DVL 12 s late, was refused as too few pings to find its clock (0.3 s every 20 s: put at +79 s,
+    not confident). Its windows are now cut at the gaps and found within 0.1 s. The start at 7.3 s once landed 0.35 s
+    off on a step in the refinement's cost (a gap passing over a ping moves it between parts)."""
+    imu = sim_200.imu
+    for t0 in np.arange(start, 200.0, 20.0):
+        imu = _imu_without(imu, t0, 1.0)
+    est = estimate_dvl_clock_offset(imu, _shifted(sim_200.dvl, 12.0), sim_200.config)
+    assert est.confident, est
+    assert est.offset_s == pytest.approx(12.0, abs=0.1)
+
+
+@pytest.mark.parametrize("gap_s", [0.5, 1.0, 2.0])
+def test_a_window_cut_at_an_imu_gap_keeps_the_offset_of_the_log_without_it(gap_s):
+    """A 200 s log (seed 2), its DVL 12 s late, with one IMU gap at 80 s was found 0.125 s from the offset of the same
+    log without the gap (+12.132 against +12.007 s) with the windows across it left out; cut at it, within 0.05 s."""
+    cfg = SensorConfig()
+    cfg.dvl = dataclasses.replace(cfg.dvl, beam_noise_std=0.01)
+    sim = simulate_mission(200.0, seed=2, config=cfg)
+    dvl = _shifted(sim.dvl, 12.0)
+    clean = estimate_dvl_clock_offset(sim.imu, dvl, sim.config)
+    est = estimate_dvl_clock_offset(_imu_without(sim.imu, 80.0, gap_s), dvl, sim.config)
+    assert clean.confident and est.confident, est
+    assert est.offset_s == pytest.approx(clean.offset_s, abs=0.05)
+
+
+def test_a_dvl_beside_an_imu_too_gappy_for_its_clock_is_warned_about_not_kept_silently(sim_200):
+    """0.4 s of IMU rows missing every 4 s leave no part of a window with 6 pings. A DVL 30 s late on the IMU span had
+    its stamps kept with only a note blaming 'too few pings or too short a log', and the search's error blamed the
+    DVL's pings; now the error names the IMU's gaps, and the stamps kept unchecked are warned about and counted."""
+    imu = sim_200.imu
+    for t0 in np.arange(1.0, 200.0, 4.0):
+        imu = _imu_without(imu, t0, 0.4)
+    dvl = _shifted(sim_200.dvl, 30.0)
+    with pytest.raises(DataError, match=r"the IMU's stamps have 50 gap\(s\) \(0\.40 s long, starting every 4\.0 s\)"):
+        estimate_dvl_clock_offset(imu, dvl, sim_200.config)
+    meta: dict = {}
+    with pytest.warns(RuntimeWarning, match="clock offset not estimated, stamps kept unchecked: .*IMU's stamps have"):
+        out, _ = align_stream_clocks(imu, dvl, None, meta, sim_200.config)
+    assert out is dvl
+    from graphnav.calibration.clock import CLOCK_UNCHECKED_IMU_GAPS
+    assert meta["streams"]["dvl"]["doubted"][CLOCK_UNCHECKED_IMU_GAPS] == len(dvl.t)

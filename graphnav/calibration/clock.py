@@ -43,10 +43,12 @@ from scipy.stats import norm, wilcoxon
 
 from graphnav.calibration.reference import _sigma_from_curvature
 from graphnav.core.dvl_kinematics import (COARSE_MAX_WINDOWS, MAX_CLOCK_GAP_S, MAX_WINDOW_GAP_S, MIN_OVERLAP_S,
-                                          ImuIntegrals, across_outages_model, gaps_said, imu_integrals, offset_grid,
-                                          outage_cut_model, search_overlap, still_velocity_said, with_enough_pings)
+                                          ImuIntegrals, across_outages_model, gaps_said, imu_gaps, imu_gaps_said,
+                                          imu_integrals, offset_grid, outage_cut_model, search_overlap,
+                                          still_velocity_said, with_enough_pings)
 from graphnav.core.errors import DataError
-from graphnav.core.streams import OFFSET_KEYS, add_note, count_doubted, offset_on_written_stamps, set_span
+from graphnav.core.streams import (OFFSET_KEYS, add_note, count_doubted, offset_on_written_stamps, say_doubted,
+                                   set_span)
 from graphnav.core.timeseries import cumulative_integral, interp_rows, on_the_imu_clock, overlap_text
 
 #: When the DVL already overlaps the IMU, :func:`align_stream_clocks` searches offsets within +- this first, s
@@ -90,6 +92,9 @@ FINE_OFFSET_S = 2.0
 #: Why the pings of a DVL are counted whose clock offset was taken off its stamps under the clear peak
 #: (:attr:`ClockOffset.off_its_stamps`).
 CLOCK_TAKEN_UNCLEAR = "DVL clock offset taken under the clear peak: its stamps as read explain it far less"
+#: Why the pings of a DVL on the IMU span are counted whose clock could not be searched for the IMU's gaps (the windows
+#: they cut keep too few pings): its stamps are kept unchecked, a DVL 30 s late as well as one on time.
+CLOCK_UNCHECKED_IMU_GAPS = "DVL clock not checked: the IMU's gaps leave no window to score"
 #: Such an offset further than this from the stamps (s) is taken only where it also explains
 #: OFF_STAMPS_MIN_GAP more than the best offset within this of them, the two scored on the pings both keep on the IMU
 #: span (:func:`_nearer_the_stamps`; else the nearer is judged in its place): a DVL a few seconds off its clock is far
@@ -325,6 +330,12 @@ def estimate_dvl_clock_offset(imu, dvl, config=None, *, min_overlap_s: float = M
     h, coarse, best, second, rival = _coarse_offset(model.thinned(COARSE_MAX_WINDOWS), ints.t, t_dvl, min_overlap_s,
                                              period, "DVL", dvl.source, search_s)
     if not np.isfinite(best):
+        if len(ints.gaps):          # the IMU's gaps left the windows too few, not the DVL's pings
+            raise DataError(f"the DVL's clock cannot be found against this IMU: {imu_gaps_said(ints.gaps, window)}; "
+                            f"{gaps_said(t_dvl, window, model.max_gap_s)}, and no offset keeping {min_overlap_s:.0f} "
+                            "s of overlap puts two windows' parts on the IMU span: give the DVL clock's offset by "
+                            "hand (dvl_time_offset_s, s added to the DVL stamps) if it is known", dvl.source,
+                            field="t")
         broken = np.any(np.diff(t_dvl) > model.max_gap_s)
         raise DataError(f"the DVL's pings are too {'broken up' if broken else 'few'} to find its clock: "
                         f"{gaps_said(t_dvl, window, model.max_gap_s)}, and no offset keeping {min_overlap_s:.0f} s "
@@ -335,7 +346,7 @@ def estimate_dvl_clock_offset(imu, dvl, config=None, *, min_overlap_s: float = M
     # grid steps each way: a ping entering the span moves the coarse scores by its share (a 60 s simulated log's
     # best lay 0.7 s from its coarse offset)
     lo, hi = coarse - 2 * h, coarse + 2 * h
-    use = with_enough_pings(model.pings(lo) & model.pings(hi))
+    use = model.pings_over(lo, hi)
 
     def cost(o):
         return model.score(o, use)[1]
@@ -359,7 +370,7 @@ def _lead_over(model, x: float, rival: float, h: float) -> float:
     the mean, 5.4 by the ranks). NaN without :data:`SPREAD_MIN_WINDOWS` such windows (or without a rival)."""
     if not np.isfinite(rival):
         return float("nan")
-    both = with_enough_pings(model.pings(x) & model.pings(rival - h) & model.pings(rival + h))
+    both = with_enough_pings(model.pings(x) & model.pings_over(rival - h, rival + h))
     # the rival at its own best near its grid offset, as the peak is at its refined one
     rival = float(minimize_scalar(lambda o: model.score(o, both)[1], bounds=(rival - h, rival + h), method="bounded",
                                   options={"xatol": 1e-3}).x)
@@ -610,11 +621,15 @@ def align_stream_clocks(imu, dvl, depth=None, meta: dict | None = None, config=N
         est = _searched_offset(imu, dvl, config, min_overlap_s, inside, model)
         if not est.confident and np.any(np.diff(model.t_pings) > model.max_gap_s):
             est = _across_short_gaps(imu, dvl, config, min_overlap_s, inside, model, est, meta)
-    except DataError:
-        if inside:
+    except DataError as err:
+        if not inside:
+            raise
+        if len(imu_gaps(imu.t)):     # not the DVL's doing, and a DVL far off its stamps would run there unsaid
+            say_doubted(meta, "dvl", dvl.source, f"clock offset not estimated, stamps kept unchecked: {err.message}",
+                        CLOCK_UNCHECKED_IMU_GAPS, len(dvl.t), stacklevel=2)
+        else:
             add_note(meta, "dvl", "clock offset not estimated (too few pings or too short a log); stamps kept")
-            return dvl, depth
-        raise
+        return dvl, depth
     meta.setdefault("clock_offsets", {})["dvl"] = est.to_dict()
     period = float(np.median(np.diff(dvl.t))) if len(dvl.t) > 1 else 1.0
     said = est.on_written_stamps(meta, "dvl")

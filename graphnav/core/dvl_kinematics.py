@@ -21,7 +21,7 @@ from graphnav.core.timeseries import cumulative_integral, interp_rows
 
 #: Step of the IMU grid the integrals are kept on, s.
 IMU_GRID_S = 0.05
-#: Shortest gap between IMU stamps, s, across which no window of pings is fitted (:func:`imu_gaps`; the run's own bar,
+#: Shortest gap between IMU stamps, s, at which a window of pings is cut (:func:`imu_gaps`; the run's own bar,
 #: :data:`~graphnav.core.mission.IMU_GAP_PERIODS` periods, where longer). One gap at 80 s of simulated logs (400 s,
 #: seeds 1-3; 200 s, seeds 1-2; DVL 12 s late) moved the clock found by at most 1 ms at 0.25 s, 12 ms at 0.5 s,
 #: 10-160 ms at 1 s, and 0.5-166 s at 2 s; six samples dropped every 10 s (0.07 s steps) moved it by 3 ms, where
@@ -121,7 +121,7 @@ class ImuIntegrals:
     M: np.ndarray
     omega: np.ndarray
     #: (G,2) the start and end stamps (s) of the IMU's gaps (:func:`imu_gaps`), across which the integrals hold the
-    #: last sample: no window of pings spanning one is fitted (:meth:`_WindowModel.pings`)
+    #: last sample: a window of pings is cut there (:meth:`_WindowModel.at_imu_gaps`)
     gaps: np.ndarray = field(default_factory=lambda: np.empty((0, 2)), compare=False)
     #: ``F``, ``W``, ``omega`` and ``M`` (as 9 columns) side by side, (K,18), row by row: built on the first
     #: :meth:`at`, kept for every other (a prepare step's clock models share it: ``clock.ImuSide``)
@@ -224,7 +224,7 @@ def without_window_fit(y: np.ndarray, A: np.ndarray, use: np.ndarray | None = No
     all); ``A`` is then :func:`centred` over them, and the residual is zero at the others."""
     use = None if use is None or use.all() else use
     y = y - y.mean(axis=1, keepdims=True) if use is None else centred(y, use)     # v0
-    g0 = np.linalg.solve(np.einsum("wki,wkj->wij", A, A) + 1e-9 * np.eye(3),
+    g0 = np.linalg.solve(np.einsum("wki,wkj->wij", A, A) + 1e-9 * np.eye(A.shape[-1]),
                          np.einsum("wki,wk->wi", A, y.reshape(len(y), -1))[..., None])[..., 0]
     return y.reshape(len(y), -1) - np.einsum("wkj,wj->wk", A, g0)
 
@@ -267,6 +267,18 @@ def gaps_said(t: np.ndarray, window: int, max_gap_s: float = MAX_WINDOW_GAP_S) -
                    f"pings (of the {window} a {WINDOW_S:g} s window holds)")
 
 
+def imu_gaps_said(gaps: np.ndarray, window: int) -> str:
+    """How the IMU's gaps ``gaps`` (G,2; s, :func:`imu_gaps`) cut windows of ``window`` pings: how many, how long,
+    how far apart, and the pings each part of a window keeps to be fitted."""
+    length, n = gaps[:, 1] - gaps[:, 0], len(gaps)
+    lo, hi = float(np.min(length)), float(np.max(length))
+    text = f"the IMU's stamps have {n} gap(s) ({lo:.2f} s long" if round(lo, 2) == round(hi, 2) else (
+        f"the IMU's stamps have {n} gap(s) ({lo:.2f}-{hi:.2f} s long")
+    text += f", starting every {np.median(np.diff(gaps[:, 0])):.1f} s)" if n > 1 else ")"
+    return (text + ", across which its integrals hold the last sample: the DVL's windows are cut at them, and only a "
+            f"part keeping at least {min(MIN_WINDOW_PINGS, window)} pings between two is fitted")
+
+
 class _WindowModel:
     """The DVL pings in windows of :data:`WINDOW_PINGS` (cut at gaps, :func:`window_rows`); for a candidate offset,
     the residual of
@@ -281,8 +293,9 @@ class _WindowModel:
     offsets a few seconds apart score nearly the same pings and none wins by leaving out a window it explains
     badly). No window spans a gap of more than ``max_gap_s`` (:data:`MAX_WINDOW_GAP_S`; the clock search's and the
     speed check's scale fit's :data:`MAX_CLOCK_GAP_S`, :func:`outage_cut_model`); the padding of a window cut short
-    by one (``real`` False) is fitted at no offset, nor at an offset a window whose pings span a gap in the IMU
-    (:func:`imu_gaps`: the integrals hold the last sample across it), as one outside the IMU span.
+    by one (``real`` False) is fitted at no offset. At an offset putting a gap in the IMU inside a window
+    (:func:`imu_gaps`: the integrals hold the last sample across it), the clock search's window is cut there, its
+    parts either side fitted on their own, and the DVL checks' window is left out (:meth:`at_imu_gaps`).
     ``t_pings``: the stamps of every ping it was built from (s), in the windows or not (the clock search's span,
     period and gaps)."""
 
@@ -316,20 +329,58 @@ class _WindowModel:
 
     def pings(self, offset: float) -> np.ndarray:
         """(win, window) True at the pings fitted at ``offset`` s: those inside the IMU span, of the windows keeping
-        enough (class docstring), less a window's padding (:func:`window_rows`), and none of a window whose pings
-        there span a gap in the IMU (:func:`imu_gaps`)."""
+        enough (class docstring), less a window's padding (:func:`window_rows`), and cut at the IMU's gaps there
+        (:meth:`at_imu_gaps`)."""
         t = self.t + offset
         inside = (t >= self.imu.t[0]) & (t <= self.imu.t[-1])
         use = with_enough_pings((inside if self.trim else inside & inside.all(axis=1, keepdims=True)) & self.real)
-        return use & ~self._across_imu_gaps(t, use)[:, None] if len(self.imu.gaps) else use
+        return self.at_imu_gaps(offset, use)
 
-    def _across_imu_gaps(self, t: np.ndarray, use: np.ndarray) -> np.ndarray:
-        """(win,) True at the windows whose pings ``use`` (win, window), at stamps ``t`` on the IMU clock (s), span
-        one of the IMU's gaps (:func:`imu_gaps`), or have one between them."""
-        first = np.min(np.where(use, t, np.inf), axis=1)[:, None]
-        last = np.max(np.where(use, t, -np.inf), axis=1)[:, None]
-        start, end = self.imu.gaps[:, 0], self.imu.gaps[:, 1]
-        return np.any((start < last) & (end > first), axis=1)
+    def pings_over(self, lo: float, hi: float) -> np.ndarray:
+        """(win, window) True at the pings fitted at every offset from ``lo`` to ``hi`` s (:meth:`pings`), each window
+        cut into the same parts at every one of them (:meth:`segments`): a ping an IMU gap passes over between them,
+        which would move from one part to the next and make a step in the cost a refinement takes for its minimum
+        (a 200 s simulated log with 1 s of IMU missing every 20 s, 12 s late, was placed 0.35 s off on such a step),
+        is left out."""
+        use = with_enough_pings(self.pings(lo) & self.pings(hi))
+        if not (self.trim and len(self.imu.gaps)):
+            return use
+        begun = np.searchsorted(self.imu.gaps[:, 0], self.t + hi, side="left")
+        swept = begun != np.searchsorted(self.imu.gaps[:, 1], self.t + lo, side="right")
+        return self.at_imu_gaps(lo, with_enough_pings(use & ~swept))
+
+    def at_imu_gaps(self, offset: float, use: np.ndarray) -> np.ndarray:
+        """The pings ``use`` (win, window) less those the IMU's gaps (:func:`imu_gaps`) leave unfitted at ``offset``
+        s: across a gap the integrals hold the last sample. A window of the clock search (``trim``) is cut there as
+        it is at the IMU's ends: the pings stamped inside a gap are left out, and those on either side of it keep
+        their own fit (:meth:`segments`) where they are at least :data:`MIN_WINDOW_PINGS`; any other window spanning
+        a gap, or with one between its pings, is left out whole (the DVL checks fit whole windows)."""
+        if not len(self.imu.gaps):
+            return use
+        t = self.t + offset
+        if not self.trim:
+            first = np.min(np.where(use, t, np.inf), axis=1)[:, None]
+            last = np.max(np.where(use, t, -np.inf), axis=1)[:, None]
+            start, end = self.imu.gaps[:, 0], self.imu.gaps[:, 1]
+            return use & ~np.any((start < last) & (end > first), axis=1)[:, None]
+        side = np.searchsorted(self.imu.gaps[:, 1], t, side="right")       # gaps ended by each ping
+        use = use & (np.searchsorted(self.imu.gaps[:, 0], t, side="left") == side)     # none begun and not ended
+        part = side - np.min(np.where(use, side, side.max()), axis=1, keepdims=True)
+        parts = part[:, :, None] == np.arange(max(1, int(np.max(np.where(use, part, 0))) + 1))
+        enough = np.sum(parts & use[:, :, None], axis=1) >= min(MIN_WINDOW_PINGS, use.shape[1])   # (win, parts)
+        return use & np.any(parts & enough[:, None, :], axis=2)
+
+    def segments(self, offset: float, use: np.ndarray) -> np.ndarray | None:
+        """(win, window, parts) True at each part of a window's pings ``use`` that lies between two of the IMU's
+        gaps at ``offset`` s (:meth:`at_imu_gaps`): each is fitted on its own, with its own ``v0`` and ``g0`` and its
+        own straight line, as the windows :func:`window_rows` cuts at a DVL outage are. None where no window has
+        pings on two sides of a gap."""
+        if not (self.trim and len(self.imu.gaps)):
+            return None
+        side = np.searchsorted(self.imu.gaps[:, 1], self.t + offset, side="right")
+        part = np.where(use, side - np.min(np.where(use, side, side.max()), axis=1, keepdims=True), 0)
+        n = int(np.max(part, initial=0)) + 1
+        return None if n == 1 else (part[:, :, None] == np.arange(n)) & use[:, :, None]
 
     def imu_at(self, offset: float, use: np.ndarray | None = None):
         """``(use, windows, ints)`` at ``offset`` s: the pings ``use`` (win, window; default :meth:`pings`), True at
@@ -337,7 +388,8 @@ class _WindowModel:
         (None when no window has any). Models of the same DVL stamps and IMU integrals, whose velocities differ
         only by a turn, share them (pass as ``at`` to :meth:`score`): interpolating them is most of a score's cost."""
         imu = self.imu
-        use = self.pings(offset) if use is None else use
+        # a mask given is cut at the IMU's gaps for the clock search's parts; the DVL checks' own masks are kept
+        use = self.pings(offset) if use is None else self.at_imu_gaps(offset, use) if self.trim else use
         windows = use.any(axis=1)
         if not windows.any():
             return use, windows, None
@@ -349,17 +401,22 @@ class _WindowModel:
         """At ``offset`` s, over the pings ``use`` (win, window; default :meth:`pings`; or :meth:`imu_at`'s ``at``):
         True at the windows with pings to fit, and for those the velocity ``v``, ``int omega x v``, ``int f_b``,
         ``omega_j x l`` (each (win, window, 3)), the gravity regressor ``int R^T`` centred per window (win, window*3,
-        3) and the pings fitted (win, window) (pass them to :func:`without_window_fit`); None for the rest when no
-        window has any."""
+        3; with more columns where a window is cut at an IMU gap, :meth:`segments`) and the pings fitted (win,
+        window) (pass them to :func:`without_window_fit`); None for the rest when no window has any."""
         use, windows, ints = self.imu_at(offset, use) if at is None else at
         if ints is None:
             return windows, None
         F, W, M, w = ints
+        parts = self.segments(offset, use)
         v, use = self.v[windows], use[windows]
         rot = np.cross(np.diff(W, axis=1), self.v_mid[windows])       # omega x v over each ping interval
         C = np.concatenate([np.zeros((len(v), 1, 3)), np.cumsum(rot, axis=1)], axis=1)
-        Mc = M - M.mean(axis=1, keepdims=True) if use.all() else centred(M, use)
-        return windows, (v, C, F, np.cross(w, self.lever), Mc.reshape(len(v), -1, 3), use)
+        if parts is None:
+            Mc = M - M.mean(axis=1, keepdims=True) if use.all() else centred(M, use)
+            A = Mc.reshape(len(v), -1, 3)
+        else:
+            A = _parts_regressor(M, use, parts[windows])
+        return windows, (v, C, F, np.cross(w, self.lever), A, use)
 
     def sse(self, offset: float, use: np.ndarray | None = None, at=None) -> tuple[np.ndarray, np.ndarray]:
         """(SSE per window, True at the windows with pings to fit) at ``offset`` s over the pings ``use`` (default
@@ -373,12 +430,19 @@ class _WindowModel:
         out[windows] = np.sum(r ** 2, axis=1)
         return out, windows
 
-    def null_sse(self, use: np.ndarray) -> np.ndarray:
-        """The straight-line SSE per window (win,) over the pings ``use`` (win, window)."""
+    def null_sse(self, use: np.ndarray, parts: np.ndarray | None = None) -> np.ndarray:
+        """The straight-line SSE per window (win,) over the pings ``use`` (win, window): one line per part of a
+        window cut at an IMU gap (``parts``, :meth:`segments`)."""
         out = self.sse_null_w.copy()
         part = use.any(axis=1) & ~use.all(axis=1)
-        if part.any():
-            out[part] = _line_sse(self.t[part], self.v[part], use[part])
+        split = np.zeros_like(part) if parts is None else parts.any(axis=1).sum(axis=1) > 1
+        if (part & ~split).any():
+            out[part & ~split] = _line_sse(self.t[part & ~split], self.v[part & ~split], use[part & ~split])
+        if split.any():
+            out[split] = 0.0
+            for k in range(parts.shape[2]):
+                has = split & parts[:, :, k].any(axis=1)
+                out[has] += _line_sse(self.t[has], self.v[has], parts[has, :, k])
         return out
 
     def score(self, offset: float, use: np.ndarray | None = None, at=None) -> tuple[float, float, int]:
@@ -389,9 +453,26 @@ class _WindowModel:
         sse, windows = self.sse(offset, at=at)
         if windows.sum() < 2:
             return -np.inf, np.inf, 0
-        null = float(np.sum(self.null_sse(use)[windows]))
+        null = float(np.sum(self.null_sse(use, self.segments(offset, use))[windows]))
         total = float(np.sum(sse[windows]))
         return 1.0 - total / max(null, 1e-12), total, int(windows.sum())
+
+
+def _parts_regressor(M: np.ndarray, use: np.ndarray, parts: np.ndarray) -> np.ndarray:
+    """The gravity regressor (win, window*3, 3 * (2 n - 1)) of windows cut at IMU gaps into the ``n`` parts ``parts``
+    (win, window, n; :meth:`_WindowModel.segments`) over the pings ``use`` (win, window), from the integrals ``int R^T
+    dt`` ``M`` (win, window, 3, 3; s) at them: each part's ``M`` centred over it (a ``g0`` each: across the gap the
+    integrals turn the attitude by what the held sample made up) and, for each part but the first, its indicator
+    centred over the window (a ``v0`` each: the gap's made-up velocity change), all zero off the part. Centred over
+    the window's pings, it fits as :func:`without_window_fit` takes ``A``: with the window's mean, each part's own."""
+    def about_mean(x, w):
+        w = w.reshape(w.shape + (1,) * (x.ndim - 2))
+        return np.where(w, x - np.sum(x * w, axis=1, keepdims=True) / np.maximum(np.sum(w, axis=1, keepdims=True),
+                                                                                  1), 0.0)
+    n, eye = parts.shape[2], np.eye(3)
+    cols = [about_mean(M, parts[:, :, k]) for k in range(n)]
+    cols += [about_mean(parts[:, :, k, None, None] * eye, use) for k in range(1, n)]
+    return np.concatenate([c.reshape(len(M), -1, 3) for c in cols], axis=2)
 
 
 def _line_sse(t: np.ndarray, v: np.ndarray, use: np.ndarray) -> np.ndarray:
