@@ -194,3 +194,67 @@ def test_a_loss_of_a_third_of_a_second_while_aligning_starts_the_alignment_again
     nav, out, said = _run(config, _lost(recs, 0.3, 60.0))
     assert nav.alignment.info["duration_s"] < 140.0 and out[0].t > 60.0
     assert any("no estimates from t = 0.000 to 60.300 s" in w for w in said), said
+
+
+def _heading_deg(C_b_n) -> float:
+    return float(np.degrees(np.arctan2(C_b_n[1, 0], C_b_n[0, 0])))
+
+
+def test_a_shared_clock_step_is_not_taken_for_a_turn_and_its_gap_is_said_once(records):
+    """Every stream stepped 5 s: the bridged gap turned the vehicle by the rate before it for 5 s, a turn that never
+    happened, with an attitude variance covering only an unmeasured rate (IMU_GAP_GYRO_SIGMA): DIVERGED twice (seed
+    1), 23.6 deg of heading off at the end said "ok" (seed 2). A gap no stream has a sample in may be such a step:
+    its attitude covariance covers the interpolated turn too. The gap was also said twice (the alignment's keyframer,
+    then the one replaying its buffer)."""
+    config, recs = records
+    _, _, said = _run(config, _stepped(recs, 5.0))
+    bridged = [w for w in said if "bridged" in w]
+    assert len(bridged) == 1 and "every stream silent over it: a loss or a step of their clock" in bridged[0], said
+    assert not any("DIVERGED" in w for w in said), said
+    m = simulate_mission(duration_s=200.0, seed=2)
+    recs2 = list(mission_records(m, config=False))
+    _, clean, _ = _run(m.config, recs2)
+    _, out, _ = _run(m.config, _stepped(recs2, 5.0))
+    at = {round(e.t, 3): e for e in clean}
+    off = _heading_deg(out[-1].C_b_n) - _heading_deg(at[round(out[-1].t - 5.0, 3)].C_b_n)
+    assert abs((off + 180.0) % 360.0 - 180.0) < 3.0, off
+
+
+def test_an_imu_gap_the_dvl_pings_through_is_a_loss_not_a_possible_step(records):
+    """Only the IMU silent for 5 s while the DVL and depth go on: a loss, bridged without the step's turn."""
+    config, recs = records
+    _, _, said = _run(config, [r for r in recs if not (r["type"] == "imu" and 150.0 <= r["t"] < 155.0)])
+    bridged = [w for w in said if "bridged" in w]
+    assert len(bridged) == 1 and "every stream silent" not in bridged[0], bridged
+
+
+def test_a_bad_first_stamp_is_not_trusted_over_the_stream_after_it(records):
+    """The first record stamped 0, every later one on Unix time: the stream was refused from its second record on
+    ("the clock jumped 1.7e+09 s ahead at t = 0.000 s ... split the stream there"), no estimate. Now the one sample
+    before the step is refused, and the stream starts over on the clock the second of IMU samples after it
+    confirmed (that second is refused too): 200 of the clean run's 201 estimates, metres from them."""
+    config, recs = records
+    t0 = 1.7e9
+    late = [dict(r, t=r["t"] + t0) for r in recs]
+    late[0] = dict(late[0], t=0.0)
+    _, clean, _ = _run(config, recs)
+    nav, out, said = _run(config, late)
+    assert any("after only 1 depth sample(s): those are refused" in w and "starts over on that clock" in w
+               for w in said), said
+    assert nav.refused == {"depth": {"t": 10}, "dvl": {"t": 1}, "imu": {"t": 100}}, nav.refused
+    at = {round(e.t, 3): e for e in clean}
+    assert len(out) == 200
+    assert max(np.linalg.norm(e.p_n[:2] - at[round(e.t - t0, 3)].p_n[:2]) for e in out) < 5.0
+
+
+def test_a_stall_in_the_streams_first_second_is_doubted_and_said(records):
+    """The IMU repeating the reading at 0.2 s for 0.6 s: with no second of samples before it, a stall is not told
+    from an IMU repeating from its start (the loaders judge by the second after it, which a live stream would have to
+    hold it for), and it went on without a word. Now it still goes on, warned and counted as doubted."""
+    config, recs = records
+    nav, out, said = _run(config, _stalled(recs, 0.2, 0.6))
+    assert any("the reading at t = 0.200 s is repeated in every value for 0.510 s or more in the stream's first 1 s"
+               in w for w in said), said
+    from graphnav.core.screening import IMU_STALL_UNTOLD
+    assert nav.doubted == {"imu": {IMU_STALL_UNTOLD: 59}} and nav.info["doubted"] == nav.doubted
+    assert "imu" not in nav.refused and len(out) == 201

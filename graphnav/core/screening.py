@@ -145,6 +145,10 @@ IMU_REST_RATE_TOL = 2e-3
 #: each 0.026 off).
 _GRAVITY_MID = (gravity_magnitude(0.0) + gravity_magnitude(math.pi / 2)) / 2
 IMU_STALLED = f"stalled (repeats the row before it in every value for {IMU_STALL_MIN_S:g} s or more)"
+#: The count key of a live IMU's samples repeating one reading as long as a stall does in the stream's first second,
+#: used though doubted (:meth:`ImuStallTest.untold`).
+IMU_STALL_UNTOLD = (f"repeats the row before it in every value for {IMU_STALL_MIN_S:g} s or more in the stream's "
+                    f"first {IMU_STALL_CONTEXT_S:g} s (a stall not told from an IMU repeating from its start)")
 #: Reason of an IMU row with all six values exactly 0 (:func:`imu_filler`): a logger's filler while the IMU delivered
 #: nothing (a real accelerometer reads gravity's specific force), dropped as no measurement, the gap it leaves
 #: bridged as any IMU gap. It is silence, not a bad sample: no share of it makes a stream's data wrong
@@ -606,6 +610,8 @@ class ImuStallTest:
     def __init__(self):
         self._recent: deque[tuple[float, bool]] = deque()     # (stamp s, repeated the one before) of those passed
         self._last: tuple[float, tuple] | None = None          # the last sample passed: (stamp s, its six values)
+        #: (stamp s of the reading the samples passed since repeat (or of the last one), how many repeat it)
+        self.run: tuple[float, int] = (-math.inf, 0)
 
     def repeats(self, values: tuple) -> bool:
         """Whether the six values (f_b then omega_b) repeat the last sample passed."""
@@ -625,10 +631,21 @@ class ImuStallTest:
         told = around and self._recent[0][0] <= t_read - IMU_STALL_CONTEXT_S
         return stalled_run(t_last - t_read, np.asarray(reading, float), sum(around) / len(around) if told else None)
 
+    def untold(self, t_last: float) -> bool:
+        """Whether the samples passed on since the stamp of the reading they repeat, up to ``t_last`` (s), would be a
+        stall by their length and reading, yet under :data:`IMU_STALL_CONTEXT_S` of samples before that reading
+        cannot tell it from an IMU whose readings repeat from its start (the stream's first second): they went on,
+        to be doubted."""
+        t_read = self.run[0]
+        return (math.isfinite(t_read) and self._recent[0][0] > t_read - IMU_STALL_CONTEXT_S
+                and stalled_run(t_last - t_read, np.asarray(self._last[1], float), 0.0))
+
     def passed(self, t: float, values: tuple) -> None:
         """A sample (stamp ``t`` s, six values) went on to the estimator."""
         recent = self._recent
-        recent.append((t, self.repeats(values)))
+        repeats = self.repeats(values)
+        self.run = (self.run[0], self.run[1] + 1) if repeats else (t, 0)
+        recent.append((t, repeats))
         while recent[0][0] < t - IMU_STALL_CONTEXT_S - 1.0:
             recent.popleft()
         self._last = (t, values)

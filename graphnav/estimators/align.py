@@ -84,6 +84,7 @@ from graphnav.core.config import DEG_PER_HOUR, SensorConfig
 from graphnav.core.dvl import DvlGeometry
 from graphnav.core.earth import EARTH_RATE, EarthModel, earth_rate_n, lla_to_ned
 from graphnav.core.errors import ConfigError
+from graphnav.core.mission import IMU_GAP_PERIODS
 from graphnav.core.screening import SpikeTest
 from graphnav.core.rotations import C_b_n_to_euler, skew, so3_exp_batch
 from graphnav.core.solution import LOCAL_ORIGIN
@@ -929,9 +930,13 @@ def align_mission(mission, options: AlignOptions | None = None, *, use_depth: bo
     The state is given at the last sample used, or at ``t_result`` (s, inside the data used; e.g.
     ``mission.t0`` to smooth a whole record offline, see :meth:`Aligner.result_at`); what is known at the
     start (initial heading, position) is in ``options``. Raises :class:`AlignmentError` when the mission ends (or
-    ``t_end`` comes) before the aligner is ready.
+    ``t_end`` comes) before the aligner is ready. The aligner is told of every IMU gap the estimators bridge
+    (:data:`~graphnav.core.mission.IMU_GAP_PERIODS` periods of the configured rate, as
+    :meth:`~graphnav.core.mission.ImuData.bridge_gaps`), as the Navigator tells it live (:meth:`Aligner.imu_gap`).
     """
     aligner = Aligner(mission.config, options)
+    gap_limit_s = IMU_GAP_PERIODS / mission.config.imu_rate_hz
+    gap_before = set((np.flatnonzero(np.diff(mission.imu.t) > gap_limit_s) + 1).tolist())    # IMU indices after one
     events = [(t, 0, i) for i, t in enumerate(mission.imu.t)]
     events += [(t, 1, i) for i, t in enumerate(mission.dvl.t)]
     if use_depth and mission.depth is not None:
@@ -944,6 +949,8 @@ def align_mission(mission, options: AlignOptions | None = None, *, use_depth: bo
         if t_end is not None and t > t_end:
             break
         if kind == 0:
+            if i in gap_before:
+                aligner.imu_gap(imu.t[i - 1], t)
             aligner.add_imu(t, imu.f_b[i], imu.omega_b[i])
             if t_end is None and aligner.ready:
                 break

@@ -67,8 +67,9 @@ from graphnav.core.dvl import ping_speed
 from graphnav.core.earth import EarthModel
 from graphnav.core.errors import ConfigError, DataError
 from graphnav.core.mission import MAX_DVL_SPEED_MPS
-from graphnav.core.screening import (EXACT_COPY, IMU_STALLED, MAX_REFUSED_FRACTION, NO_BOTTOM_LOCK, NUDGED_COPY,
-                                     ImuStallTest, NudgedCopies, RecentRepeats, StreamScreen)
+from graphnav.core.screening import (EXACT_COPY, IMU_STALL_CONTEXT_S, IMU_STALL_UNTOLD, IMU_STALLED,
+                                     MAX_REFUSED_FRACTION, NO_BOTTOM_LOCK, NUDGED_COPY, ImuStallTest, NudgedCopies,
+                                     RecentRepeats, StreamScreen)
 from graphnav.estimators.align import AlignOptions
 from graphnav.estimators.backends import BACKENDS, make_backend
 from graphnav.estimators.coasting import CoastingMonitor, SigmaMonitor
@@ -170,6 +171,10 @@ class Navigator:
                  options: NavigatorOptions | None = None, keep_keyframe_graphs: bool = False, name: str | None = None):
         if backend not in BACKENDS:
             raise ConfigError(f"unknown backend '{backend}'; choose one of {', '.join(BACKENDS)}")
+        # what a restart on a stream's new clock builds again (:meth:`_start_over_on_new_clock`)
+        self._init_args = (config, backend, dict(completer=completer, initial=initial, graph_options=graph_options,
+                                                 ekf_options=ekf_options, tight=tight, options=options,
+                                                 keep_keyframe_graphs=keep_keyframe_graphs, name=name))
         self.config = config
         self.backend_name = backend
         self.options = options or NavigatorOptions()
@@ -203,6 +208,9 @@ class Navigator:
         self._stall_held: list[tuple[float, tuple, tuple]] = []
         self._stall_refused: list[float] = []       # stamps of the stalled run being refused, s
         self._stall_cleared = -math.inf             # held samples let go (no stall) up to this stamp, s
+        self._untold_read = -math.inf       # the reading of the last run doubted as a stall not told (s)
+        #: samples used despite a doubt, per stream and reason (e.g. a stall in the stream's first second)
+        self.doubted: dict[str, dict[str, int]] = {}
         self._nudged = {k: NudgedCopies() for k in STREAM_ORDER}     # samples sent again a moment later
         self._latest: EpochEstimate | None = None
         self._prop: tuple | None = None             # cached propagation for state_at
@@ -254,7 +262,7 @@ class Navigator:
         else:       # t is a finite float here: straight to the stamp screening of _stamp_ok
             why = self._screen.stamp_problem("imu", t)
             if why is not None:
-                self._stop_at_clock_step()
+                self._stop_at_clock_step("imu")
                 return self._refuse("imu", t, "t", why)
         acc, gyro = self._imu_full_scale
         if (abs(f[0]) > acc or abs(f[1]) > acc or abs(f[2]) > acc or abs(w[0]) > gyro or abs(w[1]) > gyro
@@ -520,6 +528,8 @@ class Navigator:
                 "velocity_superseded": stats.velocity_superseded, "beams_superseded": stats.beams_superseded}
         if self.notes:
             info["notes"] = {k: list(v) for k, v in self.notes.items()}
+        if self.doubted:
+            info["doubted"] = {k: dict(v) for k, v in self.doubted.items()}
         if stats.imu_window_missing is not None:
             info["imu_window_missing"] = dict(stats.imu_window_missing)
         if self._fallbacks_before:
@@ -588,12 +598,42 @@ class Navigator:
         self.notes.setdefault(stream, []).append(text)
         warnings.warn(f"navigator: {stream}: {text}", RuntimeWarning, stacklevel=3)
 
-    def _stop_at_clock_step(self) -> None:
+    def _stop_at_clock_step(self, stream: str) -> None:
         """DataError naming the clock jump once the IMU samples refused for it show the clock stepped
-        (:meth:`~graphnav.core.screening.StreamScreen.clock_stepped`): every sample after it would be refused."""
-        if self._screen.clock_stepped():
-            raise DataError(f"navigator: {self._screen.clock_jump_text(self.received)}", self._screen.clock_jump[0],
-                            field="t")
+        (:meth:`~graphnav.core.screening.StreamScreen.clock_stepped`): every sample after it would be refused;
+        ``stream``: that of the sample being refused. Before anything left the reorder buffer the stream starts
+        over on the new clock instead (:meth:`_start_over_on_new_clock`)."""
+        if not self._screen.clock_stepped():
+            return
+        if self._released == -math.inf and self.backend is None:
+            self._start_over_on_new_clock(stream)
+            return
+        raise DataError(f"navigator: {self._screen.clock_jump_text(self.received)}", self._screen.clock_jump[0],
+                        field="t")
+
+    def _start_over_on_new_clock(self, refusing: str) -> None:
+        """The clock stepped days ahead while the samples before the step were all still in the reorder buffer
+        (no more than its window, s, of them: a stream whose first stamps are bad, 0 then Unix time): those few are
+        not trusted over the second of IMU samples after them that confirmed the new clock. They are refused and
+        counted, and the Navigator starts over on the new clock, its counts kept (the samples that showed the step
+        were refused already; ``refusing``: the stream of the one being refused)."""
+        stream, before, after = self._screen.clock_jump
+        kept = {k: n - self.samples_refused.get(k, 0) - (k == refusing) for k, n in self.received.items()}
+        kept = {k: n for k, n in kept.items() if n > 0}
+        jumped = ", ".join(f"{n} {k}" for k, n in self._screen.jumped.items())
+        counts = self.received, self.samples_refused, self.refused, self.notes, self.doubted
+        config, backend, kwargs = self._init_args
+        self.__init__(config, backend, **kwargs)
+        self.received, self.samples_refused, self.refused, self.notes, self.doubted = counts
+        for k, n in kept.items():      # counted as any refused stamp (field 't')
+            self.samples_refused[k] = self.samples_refused.get(k, 0) + n
+            self.refused.setdefault(k, {})["t"] = self.refused.get(k, {}).get("t", 0) + n
+        warnings.warn(f"navigator: the clock jumped {after - before:.6g} s ahead at t = {before:.3f} s, first on the "
+                      f"{stream} stream (its sample stamped {after:.6g} s), after only "
+                      f"{', '.join(f'{n} {k}' for k, n in kept.items())} sample(s): those are refused as stamped on "
+                      f"another clock than the stream went on with, and the stream starts over on that clock "
+                      f"({jumped} samples after the step were refused while it could have been corrupted stamps)",
+                      RuntimeWarning, stacklevel=4)
 
     def _check_refused(self) -> None:
         """DataError when more than MAX_REFUSED_FRACTION of a stream was refused: the data are not what the
@@ -626,7 +666,7 @@ class Navigator:
             return False
         why = self._screen.stamp_problem(stream, t)
         if why is not None:
-            self._stop_at_clock_step()
+            self._stop_at_clock_step(stream)
             self._refuse(stream, t, "t", why)
             return False
         return True
@@ -745,6 +785,7 @@ class Navigator:
                 if self._imu_spike(t, f, w):
                     continue
                 self._stall.passed(t, f + w)
+                self._doubt_untold_stall(t)
                 if self.backend is not None:
                     kfs = self.keyframer.add_imu(t, f, w)
                     if kfs:
@@ -787,6 +828,26 @@ class Navigator:
         self._let_held_go()
         return True
 
+    def _doubt_untold_stall(self, t: float) -> None:
+        """Count as doubted (and warn once per run) the IMU samples repeating one reading as long as a stall while the
+        stream has under a second of samples before that reading (:meth:`ImuStallTest.untold`): the loaders judge
+        such a run by the second after it, which a live stream would have to hold its start for; used, not
+        refused, as an IMU whose readings repeat from its start would be."""
+        if not self._stall.untold(t):
+            return
+        t_read, n = self._stall.run
+        counts = self.doubted.setdefault("imu", {})
+        if t_read != self._untold_read:
+            self._untold_read = t_read
+            warnings.warn(f"navigator: imu: the reading at t = {t_read:.3f} s is repeated in every value for "
+                          f"{t - t_read:.3f} s or more in the stream's first {IMU_STALL_CONTEXT_S:g} s: a stalled IMU "
+                          "cannot be told there from one whose readings repeat from its start (no second of samples "
+                          "before it); used, counted as doubted (check the IMU driver if the vehicle moved)",
+                          RuntimeWarning, stacklevel=4)
+        else:
+            n = 1
+        counts[IMU_STALL_UNTOLD] = counts.get(IMU_STALL_UNTOLD, 0) + n
+
     def _let_held_go(self) -> None:
         """The held run was no stall: back to the front of the reorder buffer, to go on unjudged."""
         held = self._stall_held
@@ -825,6 +886,8 @@ class Navigator:
         return True
 
     def _dispatch(self, stream: str, t: float, payload: tuple) -> list[EpochEstimate]:
+        if stream != "imu":     # an IMU gap the other streams go on through is a loss, not a clock step
+            self.keyframer.other_stream_at(t)
         if self.backend is None:
             if stream == "imu":     # before the start the keyframer only keeps the sample that covers t0
                 gaps = self.keyframer.stats.imu_gaps
@@ -966,8 +1029,10 @@ class Navigator:
         # a fresh keyframer from the first buffered sample on: keyframe 0 at t_first, then the buffer; what the
         # first one has said is not said again
         warned_period, imu_period = self.keyframer.warned_period, self.keyframer.imu_period
+        said_gaps = self.keyframer.said_gaps
         self.keyframer = Keyframer(self.config, self.options.keyframes, self._completer)
         self.keyframer.warned_period, self.keyframer.imu_period = warned_period, imu_period
+        self.keyframer.said_gaps = set(said_gaps)
         out = self._start(initial_from_alignment(al, hand_over_fit=False))
         replayed = [e for e in events if e[1] >= t_first]
         events.clear()
