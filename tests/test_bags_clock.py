@@ -341,3 +341,64 @@ def test_an_imu_losing_samples_as_its_latency_drops_is_told_from_a_clock_step_by
     m, warned = _load(_rewritten(clean_path, tmp_path / "uneven", uneven))
     said = [w for w in warned if "cannot be told from 5 message(s) lost as the recorder's latency dropped" in w]
     assert len(said) == 1 and "the header clock steps" in said[0], said
+
+
+@pytest.mark.parametrize("recorder_s, step_s", [(3.0, 3.0), (-3.0, -3.0)])
+def test_a_dvl_clock_step_is_judged_against_the_imu_clock_when_the_recorder_clock_is_off(sim, tmp_path, recorder_s,
+                                                                                          step_s):
+    """The recording computer's clock is 3 s off the vehicle's (every message received 3 s after, or before, its
+    stamp: the IMU's header minus receive time -3 s or +3 s) and the DVL's header clock steps by as much at message 15,
+    onto the recorder's clock. Judged against the receive clock alone, that read as the DVL's clock set right: the 15
+    pings before it were moved onto the clock after (every ping of the topic 3 s off the IMU). Judged against the
+    IMU's clock, it is the DVL's clock stepping: the pings after it are moved back onto the IMU's, as with a recorder
+    on time."""
+    _, clean_path, _ = sim
+    clean, _ = _load(clean_path)
+    n = clean.dvl.t.size
+
+    def change(t, k, msg, rx):
+        if t == "/dvl/data" and k >= 15:
+            _set_stamp(msg, _stamp_ns(msg) + int(step_s * NS))
+        return rx + int(recorder_s * NS) + (50_000_000 if t == "/dvl/data" else 0)
+    m, warned = _load(_rewritten(clean_path, tmp_path / f"rec{recorder_s:+g}", change))
+    np.testing.assert_allclose(m.dvl.t, clean.dvl.t, atol=2e-9)
+    reason = bag_stamps.HEADER_CLOCK_STEP if step_s > 0 else bag_stamps.HEADER_CLOCK_STEP_BACK
+    assert m.meta["streams"]["dvl"]["doubted"] == {reason: n - 15}
+    assert not [w for w in warned if "set right" in w]
+
+
+@pytest.mark.parametrize("back_s", [5.0, 0.8])
+def test_a_dvl_header_clock_stalling_and_stepping_back_elsewhere_keeps_its_header_stamps(sim, tmp_path, back_s):
+    """The DVL's header clock stalls for messages 11-12 (they repeat message 10's stamp, as the driver bag's do) and
+    steps back at message 20, its pings received 0.05 s after their time. Stepping back 5 s, the whole topic went onto
+    the receive time (the stall was not restamped with a step back in the topic: every ping 0.05 s late); now the stall
+    is restamped and the step repaired. Stepping back 0.8 s (under a period: stamps still increasing, not repaired),
+    the step in the window of message 13, the first after the stall, was taken for its own: the 7 pings from it to the
+    step moved 1 s late ("steps back ... moved forward by 1.000 s"); now only the stall is restamped."""
+    _, clean_path, _ = sim
+    clean, _ = _load(clean_path)
+    n = clean.dvl.t.size
+    held = {}
+
+    def change(t, k, msg, rx):
+        if t != "/dvl/data":
+            return rx
+        held.setdefault("ns", _stamp_ns(msg)) if k == 10 else None
+        if k in (11, 12):
+            _set_stamp(msg, held["ns"])
+        elif k >= 20:
+            _set_stamp(msg, _stamp_ns(msg) - int(back_s * NS))
+        return rx + 50_000_000
+    m, warned = _load(_rewritten(clean_path, tmp_path / f"back{back_s:g}", change))
+    assert m.meta["clock"]["stamps"]["dvl"] == "header"
+    dt = m.dvl.t - clean.dvl.t
+    repaired = back_s > 1.0
+    np.testing.assert_allclose(dt[:11], 0.0, atol=2e-9)
+    np.testing.assert_allclose(dt[11:13], 0.0, atol=1e-3)
+    np.testing.assert_allclose(dt[13:20], 0.0, atol=2e-9)
+    np.testing.assert_allclose(dt[20:], 0.0 if repaired else -back_s, atol=2e-9)
+    doubted = {bag_stamps.HEADER_CLOCK_STALL: 2, **({bag_stamps.HEADER_CLOCK_STEP_BACK: n - 20} if repaired else {})}
+    said = m.meta["streams"]["dvl"]["doubted"]
+    assert {k: v for k, v in said.items() if k.startswith(("stamped after", "stamped while"))} == doubted, said
+    steps = [w for w in warned if "the header clock steps back" in w]
+    assert len(steps) == repaired and all("message 20," in w for w in steps), steps

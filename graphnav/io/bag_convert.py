@@ -169,7 +169,7 @@ def _number(v, out: list) -> None:
 
 
 def decoded_stream(topic: str, msgtype: str, header_ns: np.ndarray | None, receive_ns: np.ndarray, rows: list,
-                   stream: str, label: str) -> Stream:
+                   stream: str, label: str, clock_s: float = 0.0) -> Stream:
     """The :class:`Stream` of a topic's decoded messages (``rows``, their header stamps ``header_ns`` or None and
     receive stamps ``receive_ns``, ns) read for ``stream``, without the messages published twice, as a log's rows
     written twice are dropped (:func:`graphnav.core.screening.stamp_order`), every value compared
@@ -178,7 +178,8 @@ def decoded_stream(topic: str, msgtype: str, header_ns: np.ndarray | None, recei
     usable; an IMU's whose readings repeat across stamps as often may be samples sharing a stamp and are left to
     :func:`~graphnav.io.bag_stamps.choose_stamps`), then, on the stamps chosen, one repeating the message before it a
     moment later (:func:`~graphnav.core.screening.nudged_copies`). Each is counted in the stream's log and kept in
-    ``Stream.twice`` for the warning when the topic is used (:func:`warn_written_twice`)."""
+    ``Stream.twice`` for the warning when the topic is used (:func:`warn_written_twice`). ``clock_s``: the IMU's
+    header minus receive time, s (a header clock set right is judged against it)."""
     from graphnav.io.bag_stamps import choose_stamps
     sub: dict = {}
     twice: dict = {}
@@ -192,7 +193,7 @@ def decoded_stream(topic: str, msgtype: str, header_ns: np.ndarray | None, recei
             twice[EXACT_COPY] = (copies, header_ns[copies], 0.0)
             index = np.delete(index, copies)
             header_ns, receive_ns, values = header_ns[index], receive_ns[index], values[index]
-    t_ns, keep, how = choose_stamps(header_ns, receive_ns, sub, stream, label)
+    t_ns, keep, how = choose_stamps(header_ns, receive_ns, sub, stream, label, clock_s)
     index, values, receive_ns = index[keep], values[keep], receive_ns[keep]
     if len(t_ns) > 2:
         t = (t_ns - t_ns[0]) / 1e9
@@ -235,8 +236,8 @@ def _rel(s: Stream, t0_ns: int) -> np.ndarray:
 
 
 # --- IMU ---------------------------------------------------------------------------------------------------
-def header_clock_steps_removed(s: Stream, source: str, meta: dict, steps: list | None = None, kind: str = "imu"
-                               ) -> Stream:
+def header_clock_steps_removed(s: Stream, source: str, meta: dict, steps: list | None = None, kind: str = "imu",
+                               clock_s: float = 0.0) -> Stream:
     """``s`` (a topic on its header stamps, read for stream ``kind``: the IMU, DVL, depth, heading or reference) with
     each forward step of its own header clock that the bag's receive clock does not share taken out: a gap of whole
     periods in the header stamps reads as samples lost (an IMU's bridged by the run, a DVL's pings missing), but when
@@ -244,7 +245,8 @@ def header_clock_steps_removed(s: Stream, source: str, meta: dict, steps: list |
     was lost: the topic's clock stepped (+5 s, or days: a driver's clock reset), and the stamps from that message on
     are moved back so the step lasts as many periods as the receive time says passed (one, or two: one message
     lost). A topic other than the IMU's whose clock was another clock before the step and is set right by it
-    (:func:`graphnav.io.bag_stamps.set_right`) has the stamps before it moved onto the clock after it instead. Each
+    (:func:`graphnav.io.bag_stamps.set_right`, judged against the IMU's header minus receive time ``clock_s``, s)
+    has the stamps before it moved onto the clock after it instead. Each
     step is warned about naming the topic, the message, its time and the field, and its messages counted as doubted
     on ``kind`` in ``meta``; a gap the receive time shares too (messages lost, or the recorder's clock stepping with
     it), or does in part (:data:`GAP_WARN_SAMPLES` messages lost or more by the receive time) while header minus
@@ -294,7 +296,7 @@ def header_clock_steps_removed(s: Stream, source: str, meta: dict, steps: list |
                 f"while the receive time steps {{:+.3f}} s: {periods - 1} messages lost by it, the rest the clock's "
                 "step").format(rx_s)
         moved += 1
-        if kind != "imu" and set_right(latency, i + 1, step):
+        if kind != "imu" and set_right(latency, i + 1, step, clock_s):
             before = float(np.median(latency[max(0, i + 1 - HEADER_STEP_WINDOW):i + 1]))
             t_ns[:i + 1] += shift_ns
             latency[:i + 1] += shift_ns / 1e9

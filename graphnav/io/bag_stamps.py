@@ -65,12 +65,15 @@ def nearer_the_receive_clock(latency: np.ndarray, k: int, step: float) -> bool:
     return abs(before + step) < abs(before)
 
 
-def set_right(latency: np.ndarray, k: int, step: float) -> bool:
+def set_right(latency: np.ndarray, k: int, step: float, clock_s: float = 0.0) -> bool:
     """Whether a topic's header clock was set right at message ``k``, where header minus receive time ``latency`` (s)
-    steps by ``step`` (s): off the receive clock by more than a latency (:data:`CLOCK_OFFSET_NOTE_S`) before it, within
-    a latency after it. The stamps before it are then the wrong ones."""
+    steps by ``step`` (s): off both the receive clock and the IMU's (``clock_s``: the IMU's header minus receive time,
+    s; a recorder whose own clock is off the vehicle's sees every topic that far off) by more than a latency
+    (:data:`CLOCK_OFFSET_NOTE_S`) before it, within a latency of either after it. The stamps before it are then the
+    wrong ones."""
     before = _latency_before(latency, k)
-    return abs(before) > CLOCK_OFFSET_NOTE_S >= abs(before + step)
+    off = [abs(before - c) for c in (0.0, clock_s)]
+    return min(off) > CLOCK_OFFSET_NOTE_S >= min(abs(before + step - c) for c in (0.0, clock_s))
 
 
 def latency_drop(latency: np.ndarray, k: int, step: float) -> bool:
@@ -104,15 +107,17 @@ def on_the_grid(t_ns: np.ndarray, k: int, period_s: float) -> bool | None:
     return abs(off) <= max(4.0 * jitter, 0.01 * period_s)
 
 
-def steps_back_repaired(header_ns: np.ndarray, receive_ns: np.ndarray, stream: str, stalled: np.ndarray | None
-                        ) -> tuple[np.ndarray, list[dict]] | None:
+def steps_back_repaired(header_ns: np.ndarray, receive_ns: np.ndarray, stream: str, stalled: np.ndarray | None,
+                        clock_s: float = 0.0) -> tuple[np.ndarray, list[dict]] | None:
     """``header_ns`` (ns) with each step back of the topic's header clock the receive clock ``receive_ns`` (ns) does
     not show taken out: a stamp at or before the one before it, or the first after a stall (``stalled``, from
     :func:`stall_restamped`: a clock that resumes from the value it froze at rather than jumping ahead), where header
     minus receive time drops by over half a period and :data:`HEADER_STEP_SPREADS` of its spread, judged over
     :data:`HEADER_STEP_WINDOW` messages either side. The stamps from that message on are moved forward so the step
     lasts as many periods as the receive time says passed, or, for a topic other than the IMU's whose clock was set
-    right there (:func:`set_right`), those before it back onto the clock after. Stalled messages are left for
+    right there (:func:`set_right`, judged against the IMU's header minus receive time ``clock_s``, s), those before
+    it back onto the clock after. A drop the window sees that this message's own stamp does not make (a step elsewhere
+    in the window) is not this message's. Stalled messages are left for
     :func:`_stall_stamps`. None when nothing was repaired; else (the stamps, one dict per step: ``k`` the message,
     ``prev`` the message before it judged, ``jump_s``, ``rx_s``, ``shift_s`` (the stamps' move), ``before`` True
     when the messages before it moved, ``n`` how many moved, ``latency_s`` header minus receive time before and
@@ -134,12 +139,12 @@ def steps_back_repaired(header_ns: np.ndarray, receive_ns: np.ndarray, stream: s
     done = []
     for j in cand:
         step, spread = latency_step(latency, j)
-        if -step < max(period / 2, HEADER_STEP_SPREADS * spread):
+        if -step < max(period / 2, HEADER_STEP_SPREADS * spread) or latency[j] - latency[j - 1] > step / 2:
             continue
         jump = (t[j] - t[j - 1]) / 1e9
         periods = max(1, round((jump - step) / period))
         shift_ns = int(round((jump - periods * period) * 1e9))
-        before = stream != "imu" and set_right(latency, j, step)
+        before = stream != "imu" and set_right(latency, j, step, clock_s)
         lat = (_latency_before(latency, j), _latency_before(latency, j) + step)
         if before:
             t[:j] += shift_ns
@@ -203,13 +208,13 @@ HEADER_CLOCK_STALL = "stamped while the header clock stalled (restamped from the
 def stall_restamped(header_ns: np.ndarray, receive_ns: np.ndarray, stream: str) -> np.ndarray | None:
     """Which messages of a topic (not the IMU's, whose samples may share a stamp in packets) repeat the header stamp
     before them while their receive time ``receive_ns`` (ns) advanced: a header clock that stalled for a few messages
-    (at most :data:`STALL_MAX_SHARE` of them, none stamped zero or back), each one's stamp the stall's first. None when
-    it is not such a stall."""
+    (at most :data:`STALL_MAX_SHARE` of them, none stamped zero), each one's stamp the stall's first; a step back
+    elsewhere is left to :func:`steps_back_repaired`. None when it is not such a stall."""
     if stream == "imu" or len(header_ns) < 3 or np.any(header_ns == 0):
         return None
     step = np.diff(header_ns)
     stalled = np.r_[False, step == 0]
-    if np.any(step < 0) or not stalled.any() or stalled.mean() > STALL_MAX_SHARE:
+    if not stalled.any() or stalled.mean() > STALL_MAX_SHARE:
         return None
     if np.any(np.diff(receive_ns)[stalled[1:]] <= 0):        # received together: copies, not a stall
         return None
@@ -232,12 +237,13 @@ def _stall_stamps(header_ns: np.ndarray, receive_ns: np.ndarray, stalled: np.nda
     return t_ns, first / 1e9
 
 
-def choose_stamps(header_ns: np.ndarray | None, receive_ns: np.ndarray, meta: dict, stream: str, label: str
-                  ) -> tuple[np.ndarray, np.ndarray, str]:
+def choose_stamps(header_ns: np.ndarray | None, receive_ns: np.ndarray, meta: dict, stream: str, label: str,
+                  clock_s: float = 0.0) -> tuple[np.ndarray, np.ndarray, str]:
     """(stamps ns, kept message indices, ``"header"`` or ``"receive"``) for one stream.
 
     ``header_ns`` None: the message type has no header (``std_msgs/Float64``): the receive time, noted.
     ``label`` names the stream in warnings (``file:topic``). Every dropped message is counted in ``meta``.
+    ``clock_s``: the IMU's header minus receive time, s (:func:`steps_back_repaired`).
     """
     receive_ns = np.asarray(receive_ns, np.int64)
     if header_ns is None:
@@ -248,7 +254,7 @@ def choose_stamps(header_ns: np.ndarray | None, receive_ns: np.ndarray, meta: di
         if why is None:
             return header_ns, np.arange(len(header_ns)), "header"
         stalled = stall_restamped(header_ns, receive_ns, stream)
-        back = steps_back_repaired(header_ns, receive_ns, stream, stalled)
+        back = steps_back_repaired(header_ns, receive_ns, stream, stalled, clock_s)
         t_ns = header_ns if back is None else back[0]
         if stalled is not None:
             t_ns, latency_s = _stall_stamps(t_ns, receive_ns, stalled)

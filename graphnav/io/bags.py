@@ -296,7 +296,9 @@ def read_streams(path: str | Path, topics: dict[str, str] | None = None, wanted:
     """Stream -> the decoded candidate topics (the override alone when given), stamps chosen per topic by
     :func:`graphnav.io.bag_stamps.choose_stamps`, messages published twice dropped
     (:func:`graphnav.io.bag_convert.decoded_stream`); notes and counts go to ``meta``. ``dvl_fields``: the
-    configuration's ``bag_topics.dvl`` (:mod:`graphnav.io.bag_fields`), whose topic is the DVL's."""
+    configuration's ``bag_topics.dvl`` (:mod:`graphnav.io.bag_fields`), whose topic is the DVL's. The IMU's topics
+    are read first: the other topics' header clocks are judged against its (the mission's) clock."""
+    from graphnav.io.bag_stamps import header_minus_receive_s
     path = Path(path)
     source = str(path)
     meta = {} if meta is None else meta
@@ -314,14 +316,18 @@ def read_streams(path: str | Path, topics: dict[str, str] | None = None, wanted:
             chosen = _choose_topics(bag, topics or {}, source, wanted, required, dvl_fields)
             decoded: dict[str, Stream] = {}
             out: dict[str, list[Stream]] = {}
-            for stream, names in chosen.items():
+            clock_s = 0.0       # the IMU's header minus receive time: the mission's clock seen from the recorder's
+            for stream, names in sorted(chosen.items(), key=lambda kv: kv[0] != "imu"):
                 for topic in names:
                     if topic not in decoded:
                         msgtype, head, rx, rows = bag.topic(topic)
                         decoded[topic] = conv.decoded_stream(topic, msgtype, head, rx, rows, stream,
-                                                             f"{source}:{topic}")
+                                                             f"{source}:{topic}", clock_s)
                     out.setdefault(stream, []).append(decoded[topic])
-            return out
+                if stream == "imu" and names:
+                    s = decoded[names[0]]
+                    clock_s = header_minus_receive_s(s.t_ns, s.receive_ns, s.stamp_kind)
+            return {stream: out[stream] for stream in chosen if stream in out}
         finally:
             reader.close()
 
@@ -391,7 +397,7 @@ def load_bag(path: str | Path, config: SensorConfig | None = None, topics: dict[
 
     ``atmospheric_pressure_configured``: subtract ``config.atmospheric_pressure_pa`` as given instead of
     estimating the surface pressure from the first seconds of the record."""
-    from graphnav.io.bag_stamps import compare_clocks
+    from graphnav.io.bag_stamps import compare_clocks, header_minus_receive_s
     path = Path(path)
     config = dataclasses.replace(config) if config is not None else SensorConfig()
     topics = topics or {}
@@ -401,6 +407,7 @@ def load_bag(path: str | Path, config: SensorConfig | None = None, topics: dict[
     imu_s = streams["imu"][0] if "imu" in topics else _pick_one("imu", streams["imu"], source)
     steps: list = []
     stepped = conv.header_clock_steps_removed(imu_s, source, meta, steps)
+    clock_s = header_minus_receive_s(stepped.t_ns, stepped.receive_ns, stepped.stamp_kind)
     # the IMU's topic read again as the heading (an AHRS) moves with it; the other topics whose header clock stepped
     # with the IMU's move back with it, then each other topic's own header clock steps are taken out as the IMU's
     own: dict[int, Stream] = {id(imu_s): stepped}
@@ -408,7 +415,7 @@ def load_bag(path: str | Path, config: SensorConfig | None = None, topics: dict[
         for s in found:
             if kind != "imu" and id(s) not in own:      # a topic read for two streams is moved (and warned) once
                 shared = conv.shared_clock_step_removed(s, steps, kind, source, meta)
-                own[id(s)] = conv.header_clock_steps_removed(shared, source, meta, kind=kind)
+                own[id(s)] = conv.header_clock_steps_removed(shared, source, meta, kind=kind, clock_s=clock_s)
     streams = {kind: [own.get(id(s), s) for s in found] for kind, found in streams.items()}
     imu_s = stepped
     dvl_s = streams["dvl"][0] if "dvl" in topics else _pick_one("dvl", streams["dvl"], source)
