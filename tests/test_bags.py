@@ -3,6 +3,7 @@ families) is read back through the CLI (`graphnav smooth` / `online`), the estim
 Odometry bag, and bad bags fail with errors that name the topic."""
 from __future__ import annotations
 
+import dataclasses
 import json
 import re
 
@@ -535,7 +536,8 @@ def test_all_zero_imu_messages_are_refused_as_a_loggers_filler_naming_topic_and_
     """A driver writing IMU messages of all zeros while its IMU delivered nothing (0.5 s of them and one alone): they
     were read as measurements of no acceleration and no turn (only the run dropped them, after the DVL clock search
     had used them). Now they are refused as the filler they are, warned about once with the topic, the first message
-    and its time, counted under their own reason, and the gap they leave is an IMU gap."""
+    and its time, counted under their own reason, and the gap they leave is the run's to bridge (their stamps are the
+    IMU's clock still ticking, no samples lost: no stamp gap warned, as in a column map)."""
     mission = simulate_mission(duration_s=40.0, seed=5)
     rows = [700, *range(2000, 2050)]
     mission.imu.f_b[rows] = 0.0
@@ -548,7 +550,7 @@ def test_all_zero_imu_messages_are_refused_as_a_loggers_filler_naming_topic_and_
     said = [w for w in warned if "all-zero IMU" in w]
     assert len(said) == 1 and f"/imu/data: 51 imu sample(s) refused (51 {filler}) at message 700 (t = 7.000 s), " \
         "message 2000 (t = 20.000 s)" in said[0]
-    assert any("a gap of 0.5 s in the stamps" in w for w in warned)
+    assert not any("in the stamps" in w for w in warned) and "doubted" not in m.meta["streams"]["imu"]
 
 
 #: The IMU message's six fields, the columns of the same IMU written as a column map.
@@ -622,6 +624,28 @@ def test_a_damaged_imu_is_refused_in_a_bag_as_in_a_column_map(tmp_path):
     np.testing.assert_allclose(bag.imu.omega_b, csv.imu.omega_b, rtol=1e-9, atol=1e-15)
 
 
+def test_a_bag_warns_no_stamp_gap_where_it_refused_messages_as_a_column_map(tmp_path):
+    """0.2 s of a logger's filler, then 0.2 s of NaN beside a true gap of 0.3 s (30 messages not written): the bag
+    warned 'a gap of 0.2 s in the stamps (20 periods ... 20 samples lost, or the clock stepped ...)' where it had
+    refused messages whose stamps were all there, and counted it as doubted, which a column map of the same rows
+    does not (its stamps are judged before any row is refused). Now the bag warns and counts the true gap only, as the
+    column map does."""
+    mission = simulate_mission(duration_s=40.0, seed=5)
+    mission.imu.f_b[1000:1020], mission.imu.omega_b[1000:1020] = 0.0, 0.0
+    mission.imu.f_b[2000:2020, 1] = np.nan
+    keep = np.r_[0:2500, 2530:len(mission.imu.t)]           # 30 samples lost at 25 s: a true gap
+    mission.imu = dataclasses.replace(mission.imu, t=mission.imu.t[keep], f_b=mission.imu.f_b[keep],
+                                      omega_b=mission.imu.omega_b[keep])
+    read = _read_both(mission, tmp_path)
+    gap = "stamped after a gap in the IMU data (whole periods: samples lost, bridged)"
+    for kind, (m, warned) in read.items():
+        assert m.meta["streams"]["imu"]["doubted"] == {gap: 1}, kind
+        said = [w for w in warned if "in the stamps" in w]
+        assert len(said) == 1 and "a gap of 0.3 s in the stamps (30 periods" in said[0], (kind, said)
+    assert "message 2500 (t = 25.300 s)" in read["bag"][1][[i for i, w in enumerate(read["bag"][1])
+                                                             if "in the stamps" in w][0]]
+
+
 def test_filler_then_a_dead_accelerometer_past_the_bridge_limit_stops_a_bag_as_a_column_map(tmp_path):
     """400 s of a logger's filler then 210 s of a dead accelerometer (a 10 Hz IMU): together a 610 s gap, which the
     column map refuses as the IMU stopping. The bag's own filler check left the dead rows out and saw 400 s, bridged;
@@ -638,6 +662,46 @@ def test_filler_then_a_dead_accelerometer_past_the_bridge_limit_stops_a_bag_as_a
     for kind in ("csv", "bag"):
         with pytest.raises(DataError, match=gap):
             _read_both(mission, tmp_path / kind, (kind,))
+
+
+def test_a_bags_nan_run_past_the_bridge_limit_is_refused_naming_the_message_after_it(tmp_path):
+    """700 s of IMU messages with a NaN (a 10 Hz IMU): the IMU stopping, as in a column map, whose error names the
+    file line after the gap. The bag's named no message, only the time of the one before the gap (its warnings name
+    messages); now it names the message after it and its time, as its warnings and its stamp errors do."""
+    from graphnav.core.config import SensorConfig
+    config = SensorConfig()
+    config.imu_rate_hz = 10.0
+    mission = simulate_mission(duration_s=1000.0, seed=5, config=config)
+    mission.imu.f_b[2000:9000, 1] = np.nan
+    path = bag_driver.write_driver_bag(mission, tmp_path / "bag", leak_sensor=False, housing_sensor=False)
+    with pytest.raises(DataError, match=r"bag:/imu/data: message 9000 \(t = 900\.000 s\): IMU gap left by 7000 IMU "
+                                        r"row\(s\) without a measurement \(NaN or infinite values, or a dead "
+                                        r"accelerometer\) of 700\.1 s after t = 199\.900 s"):
+        _load(path, None)
+
+
+def test_an_imu_mostly_without_a_measurement_is_refused_saying_what_to_check_not_the_units(tmp_path):
+    """An accelerometer dead (three zeros) on 55 % of the rows, then NaN on 55 %: refused as more than half of the
+    IMU, saying 'check the units and the configuration's sensor ranges' (a bag's dead accelerometer used to be told
+    'median |f_b| = 0: not gravity', naming the field), though zeros and NaN are so in any unit and range. Now the
+    refusal, of a bag and of a column map, says to check the accelerometer, or the sensor and its logger (and a column
+    map's columns)."""
+    mission = simulate_mission(duration_s=20.0, seed=5)
+    f = mission.imu.f_b.copy()
+    mission.imu.f_b[:1100] = 0.0
+    for kind in ("bag", "csv"):
+        with pytest.raises(DataError, match=r"1100 of 2001 imu samples refused \(1100 accelerometer all zero .*more "
+                                            r"than 50% of the stream; check the accelerometer: three values of "
+                                            r"exactly 0 beside the gyro's are no measurement in any unit") as e:
+            _read_both(mission, tmp_path / f"dead-{kind}", (kind,))
+        assert "units" not in str(e.value).split("check ")[-1].replace("in any unit", "")
+    mission.imu.f_b[:] = f
+    mission.imu.f_b[:1100, 2] = np.nan
+    for kind, column_map in (("bag", ""), ("csv", r", or the column map \(a column named that holds no numbers\)")):
+        with pytest.raises(DataError, match=r"field 'linear_acceleration.z': 1100 of 2001 imu samples refused .*"
+                                            r"check the sensor and its logger or driver: an empty, NaN or infinite "
+                                            rf"value is no measurement in any unit{column_map}$"):
+            _read_both(mission, tmp_path / f"nan-{kind}", (kind,))
 
 
 def test_a_bag_and_a_column_map_look_for_imu_rows_without_a_measurement_once(tmp_path, monkeypatch):

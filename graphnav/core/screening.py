@@ -712,16 +712,17 @@ def imu_implausible(t: np.ndarray, f_b: np.ndarray, omega_b: np.ndarray, config:
 
 
 def imu_unmeasured(t: np.ndarray, f_b: np.ndarray, omega_b: np.ndarray, fields=IMU_FIELDS, source: str = "",
-                   lines: np.ndarray | None = None) -> dict[str, np.ndarray]:
+                   lines: np.ndarray | None = None, where: list[str] | None = None) -> dict[str, np.ndarray]:
     """The IMU rows that hold no measurement, by reason, disjoint: a logger's all-zero filler (:func:`imu_filler`;
-    :func:`check_filler_gaps` with ``source`` and the file ``lines``), three accelerometer values of exactly 0
-    beside a gyro's (:data:`ACCEL_ZERO`), a NaN or infinite value (:func:`not_finite`, named by the first of
-    ``fields``). Zero and NaN are so in any unit: a reader refuses them before it judges the
-    IMU's units or axes by its rows. ``t`` (N,) s, ``f_b`` (N,3) m/s^2, ``omega_b`` (N,3) rad/s (any units)."""
+    :func:`check_filler_gaps` with ``source`` and the file ``lines`` or ``where`` the file holds each row), three
+    accelerometer values of exactly 0 beside a gyro's (:data:`ACCEL_ZERO`), a NaN or infinite value
+    (:func:`not_finite`, named by the first of ``fields``). Zero and NaN are so in any unit: a reader refuses them
+    before it judges the IMU's units or axes by its rows. ``t`` (N,) s, ``f_b`` (N,3) m/s^2, ``omega_b`` (N,3) rad/s
+    (any units)."""
     filler = imu_filler(f_b, omega_b)
     dead = ~np.any(np.asarray(f_b, float) != 0.0, axis=1) & ~filler
     nan = not_finite(np.hstack([f_b, omega_b]), fields)
-    check_filler_gaps(t, filler, source, lines, unmeasured=np.any([filler, dead, *nan.values()], axis=0))
+    check_filler_gaps(t, filler, source, lines, unmeasured=np.any([filler, dead, *nan.values()], axis=0), where=where)
     return {IMU_FILLER: filler, ACCEL_ZERO: dead, **nan}
 
 
@@ -756,15 +757,15 @@ def whole_hours(step_s: float) -> str:
 
 
 def check_filler_gaps(t: np.ndarray, filler: np.ndarray, source: str, lines: np.ndarray | None = None,
-                      unmeasured: np.ndarray | None = None) -> None:
-    """DataError (:func:`check_imu_gap`, naming ``source``, the stamps around the gap and, when
-    ``lines`` gives it, the file line of the row after it) when a run of rows without a measurement between two other
-    rows at stamps ``t`` (N,) s leaves an IMU gap longer than can be bridged: the IMU stopped there as it does in a
-    true gap of that length, whatever the rows hold. ``filler`` (N,) bool: the all-zero rows; ``unmeasured`` (N,)
-    bool: those and any other row refused for holding no measurement (a NaN, a dead accelerometer,
-    :func:`imu_unmeasured`; default ``filler``): filler next to NaN rows leaves one gap, and so do NaN rows alone. A
-    run at either end of the file only starts the IMU later or ends it earlier; a file of filler only is a DataError
-    too (the IMU delivered nothing)."""
+                      unmeasured: np.ndarray | None = None, where: list[str] | None = None) -> None:
+    """DataError (:func:`check_imu_gap`, naming ``source``, the stamps around the gap and, when ``lines`` gives it,
+    the file line of the row after it, or ``where`` the file holds it: a bag's message) when a run of rows without a
+    measurement between two other rows at stamps ``t`` (N,) s leaves an IMU gap longer than can be bridged: the IMU
+    stopped there as it does in a true gap of that length, whatever the rows hold. ``filler`` (N,) bool: the
+    all-zero rows; ``unmeasured`` (N,) bool: those and any other row refused for holding no measurement (a NaN, a dead
+    accelerometer, :func:`imu_unmeasured`; default ``filler``): filler next to NaN rows leaves one gap, and so do NaN
+    rows alone. A run at either end of the file only starts the IMU later or ends it earlier; a file of filler only is
+    a DataError too (the IMU delivered nothing)."""
     t, filler = np.asarray(t, float), np.asarray(filler, bool)
     _check_not_all_filler(filler, source, lines)
     gone = filler if unmeasured is None else np.asarray(unmeasured, bool)
@@ -776,8 +777,9 @@ def check_filler_gaps(t: np.ndarray, filler: np.ndarray, source: str, lines: np.
                        f"{b - a} IMU row(s) without a measurement ({zeros} all-zero: a logger's filler; the others NaN "
                        "or infinite, or a dead accelerometer's zeros)" if zeros else
                        f"{b - a} IMU row(s) without a measurement (NaN or infinite values, or a dead accelerometer)")
+            at = "" if where is None else f"{where[b]}: "
             check_imu_gap(float(t[a - 1]), float(t[b]), source, None if lines is None else int(lines[b]), None,
-                          what=f"IMU gap left by {left_by}")
+                          what=f"{at}IMU gap left by {left_by}")
 
 
 def _check_not_all_filler(filler: np.ndarray, source: str, lines: np.ndarray | None) -> None:
@@ -1176,11 +1178,30 @@ def check_refused_fraction(meta: dict, limit: float = MAX_REFUSED_FRACTION, advi
             if ranked[0][0] in (REPAIRED_STAMP, EXACT_COPY):     # the values were never judged: the stamps are wrong
                 check = ("the file's stamps: many rows share each one (two streams written into one file, or a "
                          "driver stamping packets of samples together on irregular receipts)")
+            elif _holds_no_measurement(ranked[0][0]):           # so in any unit and within any range
+                check = _no_measurement_advice(ranked[0][0], meta.get("format") == "csv")
             check = (advice or {}).get(stream) or f"check {check}"
             raise DataError(f"{refused} of {read} {stream} samples refused ({reasons}): more than "
                             f"{limit:.0%} of the stream; {check}",
                             entry.get("source") or stream,
                             field=column[1] if column else meta.get("stream_fields", {}).get(stream, stream))
+
+
+def _holds_no_measurement(reason: str) -> bool:
+    """Whether rows refused for ``reason`` hold a value that no unit and no sensor range makes a measurement: empty,
+    NaN or infinite (:func:`not_finite`), an accelerometer's three zeros beside a gyro's (:data:`ACCEL_ZERO`)."""
+    return reason == ACCEL_ZERO or reason.startswith(("empty or NaN in '", "infinite in '"))
+
+
+def _no_measurement_advice(reason: str, column_map: bool) -> str:
+    """What to check when most of a stream was refused for ``reason`` (:func:`_holds_no_measurement`): the sensor
+    and its logger, not the units or ranges (a dead accelerometer's 3500 of 6001 bag rows were told to check those);
+    with a ``column_map``, also the columns it names."""
+    if reason == ACCEL_ZERO:
+        return ("the accelerometer: three values of exactly 0 beside the gyro's are no measurement in any unit (a dead "
+                "accelerometer, or an IMU without one publishing zeros; the estimators need the specific force)")
+    return ("the sensor and its logger or driver: an empty, NaN or infinite value is no measurement in any unit"
+            + (", or the column map (a column named that holds no numbers)" if column_map else ""))
 
 
 def check_filler_share(entry: dict, stream: str = "imu") -> None:

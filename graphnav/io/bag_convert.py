@@ -397,17 +397,19 @@ def imu(s: Stream, t0_ns: int, source: str, meta: dict) -> ImuData:
     any IMU gap) is refused, warned about (its index in the topic and its time) and counted in ``meta`` under the
     reasons a column map's row gets (``meta["imu_unmeasured_screened"]``: not judged again); more than half refused
     is a DataError (:func:`graphnav.core.screening.check_refused_fraction`), and so is such a run leaving a gap longer
-    than can be bridged. A step of the IMU clock or a gap is warned about and counted as a file's is
-    (:func:`graphnav.core.screening.say_imu_stamp_steps`)."""
+    than can be bridged (naming the message after it). A step of the IMU clock or a gap in every message's stamps is
+    warned about and counted as a file's is (:func:`graphnav.core.screening.say_imu_stamp_steps`)."""
     f = np.array([vec(m.linear_acceleration) for m in s.rows])
     w = np.array([vec(m.angular_velocity) for m in s.rows])
     t = _rel(s, t0_ns)
     where = messages(s, t0_ns)
     topic = f"{source}:{s.topic}"
-    t, f, w, where = refuse_rows(meta, "imu", imu_unmeasured(t, f, w, IMU_MESSAGE_FIELDS, topic), topic, None,
-                                 t, f, w, np.asarray(where, object), where=where)
+    # on every message's stamp, as a column map's rows before any is refused: the stamps of messages holding no
+    # measurement are the IMU's clock still ticking, no samples lost (their gap is the run's to bridge)
+    say_imu_stamp_steps(t, t, topic, STAMP_FIELDS[s.stamp_kind], meta, where=where)
+    t, f, w = refuse_rows(meta, "imu", imu_unmeasured(t, f, w, IMU_MESSAGE_FIELDS, topic, where=where), topic, None,
+                          t, f, w, where=where)
     meta["imu_unmeasured_screened"] = True
-    say_imu_stamp_steps(t, t, topic, STAMP_FIELDS[s.stamp_kind], meta, where=list(where))
     if not frame_is(s.rows[0].header.frame_id, "_frd"):
         f, w = f @ FLU_FRD, w @ FLU_FRD
     return ImuData(t, f, w, topic)
