@@ -80,3 +80,23 @@ def test_online_summary_counts_what_it_repaired_in_the_imu_stream(tmp_path, caps
     repairs = json.loads((tmp_path / "out" / "summary.json").read_text())["imu_repairs"]
     assert repairs["restamped"] > 4000 and repairs["gaps"] == 1 and repairs["zero_rows"] == 0, repairs
     assert "IMU stream repaired as it came (what: count): {'gaps': 1, 'restamped': " in capsys.readouterr().err
+
+
+def test_online_summary_counts_the_samples_it_used_though_doubted(tmp_path, capsys):
+    """The IMU repeating one reading for 0.6 s in the stream's first second: the Navigator uses the samples and
+    counts them as doubted (a stall it cannot tell there), but neither summary.json nor the printed summary said so
+    (the count was only in the Navigator's info)."""
+    from graphnav import cli
+    from graphnav.core.screening import IMU_STALL_UNTOLD
+    stream = tmp_path / "s.jsonl"
+    assert cli.main(["simulate", "--duration", "20", "--stream", str(stream)]) == 0
+    records = [json.loads(line) for line in stream.read_text().splitlines()]
+    read = next(r for r in records if r.get("type") == "imu" and r["t"] >= 0.2)
+    records = [dict(r, f_b=read["f_b"], omega_b=read["omega_b"]) if r.get("type") == "imu" and 0.2 < r["t"] < 0.8
+               else r for r in records]
+    stream.write_text("\n".join(json.dumps(r) for r in records) + "\n")
+    cli.main(["online", "--stream", str(stream), "--out", str(tmp_path / "out"), "--no-plots", "--no-progress"])
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    assert summary["doubted"] == {"imu": {IMU_STALL_UNTOLD: 59}}, summary.get("doubted")
+    assert f"used despite a doubt (stream: reason: count): {{'imu': {{\"{IMU_STALL_UNTOLD}\": 59}}}}" \
+        in capsys.readouterr().err

@@ -258,3 +258,27 @@ def test_a_stall_in_the_streams_first_second_is_doubted_and_said(records):
     from graphnav.core.screening import IMU_STALL_UNTOLD
     assert nav.doubted == {"imu": {IMU_STALL_UNTOLD: 59}} and nav.info["doubted"] == nav.doubted
     assert "imu" not in nav.refused and len(out) == 201
+
+
+def test_a_first_half_second_on_the_boot_clock_is_not_trusted_over_the_stream_after_it(records):
+    """The first 0.5 s of every stream stamped from 0 (a logger that started before its clock was set), every later
+    record on Unix time: more than the reorder buffer's 0.2 s had left it when the step was confirmed, and the
+    stream stopped ("the clock jumped 1.7e+09 s ahead at t = 0.490 s ... split the stream there"), no estimate. Half a
+    second is no more to trust than the second of IMU samples on the new clock that confirmed the step: refused, and
+    the stream starts over on the new clock, as after a single bad first stamp."""
+    config, recs = records
+    t0 = 1.7e9
+    late = [dict(r, t=r["t"] + t0) if r["t"] >= 0.5 else r for r in recs]
+    nav, out, said = _run(config, late)
+    assert any("after only 5 depth, 1 dvl, 50 imu sample(s): those are refused" in w for w in said), said
+    assert nav.refused["imu"] == {"t": 150} and len(out) == 200 and out[0].t > t0
+
+
+def test_a_stall_just_after_an_imu_gap_is_not_said_to_be_in_the_streams_first_second(records):
+    """Every sensor lost 5 s at 150 s, then the IMU repeating its first reading after the gap for 0.7 s: doubted as
+    a stall not told (no second of samples before it), but the warning said "in the stream's first 1 s" at 155 s."""
+    config, recs = records
+    nav, _, said = _run(config, _stalled(_lost(recs, 5.0, 150.0), 155.0, 0.7))
+    untold = [w for w in said if "the reading at t = 155.000 s is repeated" in w]
+    assert len(untold) == 1 and "right after an IMU gap" in untold[0] and "first 1 s" not in untold[0], said
+    assert nav.doubted["imu"]

@@ -323,6 +323,8 @@ def print_summary(summary: dict, file=None) -> None:
     refused = summary.get("refused")
     if refused:
         out(f"  refused samples (stream: field: count): {refused}")
+    if summary.get("doubted"):     # the Navigator's: samples used as they came though doubted
+        out(f"  used despite a doubt (stream: reason: count): {summary['doubted']}")
     repairs = {k: n for k, n in (summary.get("imu_repairs") or {}).items() if n}
     if repairs:
         out(f"  IMU stream repaired as it came (what: count): {repairs}")

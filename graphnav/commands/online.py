@@ -261,7 +261,8 @@ def run(args) -> int:
         "update_timing": update_timing(info.get("update_s")),
         "initialisation": info.get("alignment", {"source": "ground truth" if nav.initialised and
                                                   nav.alignment is None else "none"}),
-        "refused": info["refused"], "stream": stream_info, "imu_repairs": _imu_repairs(info),
+        "refused": info["refused"], "doubted": info.get("doubted", {}), "stream": stream_info,
+        "imu_repairs": _imu_repairs(info),
         "health": run_health_record(info, mission),
         "streams": None if mission is None else _loaded_streams(mission),
         "accuracy": accuracy_summary(written, mission, outages) if mission is not None and len(written.t) else {},

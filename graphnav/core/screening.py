@@ -145,10 +145,12 @@ IMU_REST_RATE_TOL = 2e-3
 #: each 0.026 off).
 _GRAVITY_MID = (gravity_magnitude(0.0) + gravity_magnitude(math.pi / 2)) / 2
 IMU_STALLED = f"stalled (repeats the row before it in every value for {IMU_STALL_MIN_S:g} s or more)"
-#: The count key of a live IMU's samples repeating one reading as long as a stall does in the stream's first second,
-#: used though doubted (:meth:`ImuStallTest.untold`).
-IMU_STALL_UNTOLD = (f"repeats the row before it in every value for {IMU_STALL_MIN_S:g} s or more in the stream's "
-                    f"first {IMU_STALL_CONTEXT_S:g} s (a stall not told from an IMU repeating from its start)")
+#: The count key of a live IMU's samples repeating one reading as long as a stall does with under a second of
+#: samples before it (the stream's first second, or just after an IMU gap), used though doubted
+#: (:meth:`ImuStallTest.untold`).
+IMU_STALL_UNTOLD = (f"repeats the row before it in every value for {IMU_STALL_MIN_S:g} s or more with under "
+                    f"{IMU_STALL_CONTEXT_S:g} s of samples before it (the stream's first second or an IMU gap: a "
+                    "stall not told from an IMU repeating from its start)")
 #: Reason of an IMU row with all six values exactly 0 (:func:`imu_filler`): a logger's filler while the IMU delivered
 #: nothing (a real accelerometer reads gravity's specific force), dropped as no measurement, the gap it leaves
 #: bridged as any IMU gap. It is silence, not a bad sample: no share of it makes a stream's data wrong
@@ -634,8 +636,8 @@ class ImuStallTest:
     def untold(self, t_last: float) -> bool:
         """Whether the samples passed on since the stamp of the reading they repeat, up to ``t_last`` (s), would be a
         stall by their length and reading, yet under :data:`IMU_STALL_CONTEXT_S` of samples before that reading
-        cannot tell it from an IMU whose readings repeat from its start (the stream's first second): they went on,
-        to be doubted."""
+        cannot tell it from an IMU whose readings repeat from its start (the stream's first second, or just after an
+        IMU gap): they went on, to be doubted."""
         t_read = self.run[0]
         return (math.isfinite(t_read) and self._recent[0][0] > t_read - IMU_STALL_CONTEXT_S
                 and stalled_run(t_last - t_read, np.asarray(self._last[1], float), 0.0))
@@ -1993,6 +1995,7 @@ class StreamScreen:
         self.zero_ping = ({"dvl": ZeroPingTest(dvl, beam_speed), "dvl_velocity": ZeroPingTest(dvl, np.linalg.norm)}
                           if self.judge_zeros else {})
         self._newest = -math.inf      # newest stamp accepted on any stream (one clock)
+        self.oldest = math.inf        #: oldest stamp accepted on any stream, s
         #: the first stamp that jumped more than MAX_STAMP_GAP_S ahead: (stream, newest stamp before it, its stamp), s
         self.clock_jump: tuple[str, float, float] | None = None
         #: samples per stream refused for such a jump
@@ -2020,6 +2023,7 @@ class StreamScreen:
         if stream == "imu" and self._jump_open and t > self.clock_jump[1]:
             self._jump_open = False     # the IMU went on past the jump on the old clock: no step
         self._newest = max(self._newest, t)
+        self.oldest = min(self.oldest, t)
         return None
 
     def clock_stepped(self) -> bool:

@@ -67,9 +67,9 @@ from graphnav.core.dvl import ping_speed
 from graphnav.core.earth import EarthModel
 from graphnav.core.errors import ConfigError, DataError
 from graphnav.core.mission import MAX_DVL_SPEED_MPS
-from graphnav.core.screening import (EXACT_COPY, IMU_STALL_CONTEXT_S, IMU_STALL_UNTOLD, IMU_STALLED,
-                                     MAX_REFUSED_FRACTION, NO_BOTTOM_LOCK, NUDGED_COPY, ImuStallTest, NudgedCopies,
-                                     RecentRepeats, StreamScreen)
+from graphnav.core.screening import (CLOCK_JUMP_CONFIRM_S, EXACT_COPY, IMU_STALL_CONTEXT_S, IMU_STALL_UNTOLD,
+                                     IMU_STALLED, MAX_REFUSED_FRACTION, NO_BOTTOM_LOCK, NUDGED_COPY, ImuStallTest,
+                                     NudgedCopies, RecentRepeats, StreamScreen)
 from graphnav.estimators.align import AlignOptions
 from graphnav.estimators.backends import BACKENDS, make_backend
 from graphnav.estimators.coasting import CoastingMonitor, SigmaMonitor
@@ -601,19 +601,22 @@ class Navigator:
     def _stop_at_clock_step(self, stream: str) -> None:
         """DataError naming the clock jump once the IMU samples refused for it show the clock stepped
         (:meth:`~graphnav.core.screening.StreamScreen.clock_stepped`): every sample after it would be refused;
-        ``stream``: that of the sample being refused. Before anything left the reorder buffer the stream starts
-        over on the new clock instead (:meth:`_start_over_on_new_clock`)."""
+        ``stream``: that of the sample being refused. Before the estimator started, with no more of the stream on the
+        old clock than the second of IMU samples on the new one that confirmed the step (or all of it still in the
+        reorder buffer), the stream starts over on the new clock instead (:meth:`_start_over_on_new_clock`): a
+        logger's first fraction of a second stamped before its clock was set is longer than the reorder window."""
         if not self._screen.clock_stepped():
             return
-        if self._released == -math.inf and self.backend is None:
+        old_clock_s = self._screen.clock_jump[1] - self._screen.oldest
+        if self.backend is None and (self._released == -math.inf or old_clock_s <= CLOCK_JUMP_CONFIRM_S):
             self._start_over_on_new_clock(stream)
             return
         raise DataError(f"navigator: {self._screen.clock_jump_text(self.received)}", self._screen.clock_jump[0],
                         field="t")
 
     def _start_over_on_new_clock(self, refusing: str) -> None:
-        """The clock stepped days ahead while the samples before the step were all still in the reorder buffer
-        (no more than its window, s, of them: a stream whose first stamps are bad, 0 then Unix time): those few are
+        """The clock stepped days ahead before the estimator started, after at most a second of samples (a stream
+        whose first stamps are bad, 0 then Unix time; :meth:`_stop_at_clock_step`): those few are
         not trusted over the second of IMU samples after them that confirmed the new clock. They are refused and
         counted, and the Navigator starts over on the new clock, its counts kept (the samples that showed the step
         were refused already; ``refusing``: the stream of the one being refused)."""
@@ -830,7 +833,8 @@ class Navigator:
 
     def _doubt_untold_stall(self, t: float) -> None:
         """Count as doubted (and warn once per run) the IMU samples repeating one reading as long as a stall while the
-        stream has under a second of samples before that reading (:meth:`ImuStallTest.untold`): the loaders judge
+        stream has under a second of samples before that reading (:meth:`ImuStallTest.untold`: the stream's first
+        second, or just after an IMU gap): the loaders judge
         such a run by the second after it, which a live stream would have to hold its start for; used, not
         refused, as an IMU whose readings repeat from its start would be."""
         if not self._stall.untold(t):
@@ -839,11 +843,14 @@ class Navigator:
         counts = self.doubted.setdefault("imu", {})
         if t_read != self._untold_read:
             self._untold_read = t_read
+            # the other way to have under a second of samples before it: an IMU gap just before the reading
+            where = (f"in the stream's first {IMU_STALL_CONTEXT_S:g} s" if t_read - self._screen.oldest
+                     < IMU_STALL_CONTEXT_S else f"right after an IMU gap (under {IMU_STALL_CONTEXT_S:g} s of IMU "
+                     "samples before it)")
             warnings.warn(f"navigator: imu: the reading at t = {t_read:.3f} s is repeated in every value for "
-                          f"{t - t_read:.3f} s or more in the stream's first {IMU_STALL_CONTEXT_S:g} s: a stalled IMU "
-                          "cannot be told there from one whose readings repeat from its start (no second of samples "
-                          "before it); used, counted as doubted (check the IMU driver if the vehicle moved)",
-                          RuntimeWarning, stacklevel=4)
+                          f"{t - t_read:.3f} s or more {where}: a stalled IMU cannot be told there from one whose "
+                          "readings repeat from its start (no second of samples before it); used, counted as "
+                          "doubted (check the IMU driver if the vehicle moved)", RuntimeWarning, stacklevel=4)
         else:
             n = 1
         counts[IMU_STALL_UNTOLD] = counts.get(IMU_STALL_UNTOLD, 0) + n
