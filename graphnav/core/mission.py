@@ -73,14 +73,11 @@ def invalid_dvl_values(values: np.ndarray, max_speed: float = MAX_DVL_SPEED_MPS)
 @dataclass(frozen=True)
 class ImuGap:
     """An IMU gap bridged by interpolation: samples ``index`` and ``index + 1`` (of the original stream)
-    are ``t_end - t_start`` seconds apart. ``turn_b``: for a gap that may be a step of the clock every stream
-    shares rather than a loss (no sample of any stream inside it), the rotation vector (rad, body axes) the
-    interpolation turns the vehicle by over it, which did not happen if it was a step; None for a loss."""
+    are ``t_end - t_start`` seconds apart."""
 
     index: int
     t_start: float
     t_end: float
-    turn_b: tuple[float, float, float] | None = None
 
     @property
     def length(self) -> float:
@@ -96,17 +93,6 @@ def gap_variances(gaps: list[ImuGap], t0: float, t1: float) -> tuple[float, floa
     (s): each gap's seconds inside, a gap shorter than :data:`IMU_GAP_SIGMA_LENGTH_S` weighted by its share of it."""
     length = sum(g.overlap(t0, t1) * min(1.0, g.length / IMU_GAP_SIGMA_LENGTH_S) for g in gaps)
     return (IMU_GAP_ACCEL_SIGMA * length) ** 2, (IMU_GAP_GYRO_SIGMA * length) ** 2
-
-
-def gap_turn_covariance(gaps: list[ImuGap], t0: float, t1: float) -> np.ndarray | None:
-    """Extra attitude covariance (rad^2, 3x3 in body axes) for the gaps inside [t0, t1] (s) that may be clock
-    steps: each one's interpolated turn ``turn_b`` along its own axis, its whole square over the whole gap in
-    proportion to the seconds inside (the turn is either right or made up entirely: no sigma per second covers
-    both); None when there is none. The other axes keep :func:`gap_variances` alone: a step makes up no tilt
-    that the interpolation does not turn."""
-    shares = [(np.asarray(g.turn_b, float), g.overlap(t0, t1) / g.length) for g in gaps if g.turn_b is not None]
-    shares = [(turn, share) for turn, share in shares if share > 0.0]
-    return sum((np.outer(turn, turn) * share for turn, share in shares), np.zeros((3, 3))) if shares else None
 
 
 def _check_time(t: np.ndarray, source: str) -> None:

@@ -263,8 +263,8 @@ class EkfBackend(_Aided):
         if kf.imu is not None and len(kf.imu.dt):
             ekf.predict(split_specific_force(kf.imu), kf.imu.omega_b, kf.imu.dt)
             self.n_imu_segments += len(kf.imu.dt)
-            if kf.imu.var_v or kf.imu.var_att or kf.imu.cov_turn_b is not None:
-                ekf.inflate(kf.imu.var_v, kf.imu.var_att, kf.imu.cov_turn_b)
+            if kf.imu.var_v or kf.imu.var_att:
+                ekf.inflate(kf.imu.var_v, kf.imu.var_att)
                 self.n_imu_gaps += 1
         ping = kf.ping
         #: a DVL update with a measured beam (or velocity) entered at this keyframe (not gated; LC: >= 3 beams),

@@ -472,15 +472,11 @@ class ErrorStateEkf:
             self._gamma = (p_n.copy(), self.strapdown.earth.gravity_gradient_n(p_n))
         return self._gamma[1]
 
-    def inflate(self, var_v: float, var_att: float, cov_turn_b: np.ndarray | None = None) -> None:
+    def inflate(self, var_v: float, var_att: float) -> None:
         """Add variance per axis to the velocity ((m/s)^2) and misalignment (rad^2) errors, e.g. over an IMU
-        gap bridged by interpolation (:meth:`graphnav.core.mission.ImuData.bridge_gaps`), and ``cov_turn_b``
-        (rad^2, 3x3 in body axes: the turn of a gap that may be a clock step) to the misalignment (NED axes)."""
+        gap bridged by interpolation (:meth:`graphnav.core.mission.ImuData.bridge_gaps`)."""
         self.P[IV, IV] += var_v * np.eye(3)
         self.P[IE, IE] += var_att * np.eye(3)
-        if cov_turn_b is not None:
-            C = self.state.C_b_n
-            self.P[IE, IE] += C @ cov_turn_b @ C.T
 
     # --- measurement model -----------------------------------------------------------------------
     def predicted_beams(self, omega_b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

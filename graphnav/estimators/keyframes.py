@@ -55,7 +55,7 @@ import numpy as np
 from graphnav.core.config import SensorConfig
 from graphnav.core.dvl import DvlGeometry, off_period
 from graphnav.core.errors import ConfigError
-from graphnav.core.mission import OUTSIDE_SPAN_TOLERANCE_S, ImuGap, gap_turn_covariance, gap_variances
+from graphnav.core.mission import OUTSIDE_SPAN_TOLERANCE_S, ImuGap, gap_variances
 from graphnav.core.screening import check_imu_gap
 from graphnav.estimators.history import BeamHistory, run_sigma_of
 from graphnav.estimators.imu_buffer import NO_WINDOW_REASONS, ImuWindowBuffer
@@ -207,8 +207,6 @@ class Keyframer:
         #: (start, end) stamps (s) of the IMU gaps already warned about (a keyframer that replays a Navigator's
         #: alignment buffer is handed those of the one before it, which said them)
         self.said_gaps: set[tuple[float, float]] = set()
-        self._other_seen = False                                 # a sample of another stream came
-        self._other_after_imu = math.inf     # earliest stamp (s) of another stream's sample after the newest IMU one
         self._n_imu = 0
         self._fill_i = 1                                         # next IMU-only keyframe: anchor + i * step
 
@@ -238,19 +236,11 @@ class Keyframer:
                               "under gravity); further ones are counted", RuntimeWarning, stacklevel=3)
             return []
         samples = self._samples
-        other_after, self._other_after_imu = self._other_after_imu, math.inf
         if samples:
             self.imu_period.add_step(t - samples[-1][0], t)
             if self.imu_period.is_gap(t - samples[-1][0], t):
-                return self._bridge(samples[-1], (t, f_b, omega_b), other_after < t)
+                return self._bridge(samples[-1], (t, f_b, omega_b))
         return self._on_sample(t, f_b, omega_b)
-
-    def other_stream_at(self, t: float) -> None:
-        """A sample of another stream than the IMU (DVL, depth, heading, fix) stamped ``t`` (s) came, in time
-        order: an IMU gap with one inside it is a loss of the IMU alone, not a step of the clock they share."""
-        self._other_seen = True
-        if not self._samples or t > self._samples[-1][0]:
-            self._other_after_imu = min(self._other_after_imu, t)
 
     def add_ping(self, ping: Ping) -> list[Keyframe]:
         """A DVL ping as it entered (:meth:`Ping.from_beams` or :meth:`Ping.from_velocity`), in time order; a
@@ -340,25 +330,21 @@ class Keyframer:
         keys = [q.t for q in self._pending]
         self._pending.insert(bisect.bisect_right(keys, p.t), p)
 
-    def _bridge(self, last, new, other_inside: bool) -> list[Keyframe]:
-        """Bridge the IMU gap from sample ``last`` to ``new`` ((t, f_b, omega_b) each) by interpolation;
-        ``other_inside``: another stream has a sample stamped inside it (a loss of the IMU alone)."""
+    def _bridge(self, last, new) -> list[Keyframe]:
+        """Bridge the IMU gap from sample ``last`` to ``new`` ((t, f_b, omega_b) each) by interpolation, said once
+        (:attr:`said_gaps`)."""
         t0, t1 = last[0], new[0]
         length = t1 - t0
         check_imu_gap(t0, t1, "imu")          # bounds the samples made below
         n_fill = int(math.ceil(length / self.imu_period.period_s)) - 1
         f0, w0, f1, w1 = np.array(last[1]), np.array(last[2]), np.array(new[1]), np.array(new[2])
-        turn = tuple((w0 + w1) / 2.0 * length) if self._maybe_clock_step(length, other_inside) else None
-        gap = ImuGap(self._n_imu - 1, t0, t1, turn)
+        gap = ImuGap(self._n_imu - 1, t0, t1)
         self._gaps.append(gap)
         self.stats.imu_gaps.append(gap)
         if (t0, t1) not in self.said_gaps:
             self.said_gaps.add((t0, t1))
-            step = "" if turn is None else (
-                f"; every stream silent over it: a loss or a step of their clock, so the attitude covariance also "
-                f"covers the {math.degrees(np.linalg.norm(turn)):.2f} deg turn the interpolation makes")
             warnings.warn(f"imu: gap of {length:.3f} s after t = {t0:.3f} s bridged by linear interpolation "
-                          f"({n_fill} samples); velocity/attitude covariance inflated over it{step}", RuntimeWarning,
+                          f"({n_fill} samples); velocity/attitude covariance inflated over it", RuntimeWarning,
                           stacklevel=4)
         out = []
         for i in range(1, n_fill + 1):
@@ -367,13 +353,6 @@ class Keyframer:
                                    bridged=True)
         out += self._on_sample(*new)
         return out
-
-    def _maybe_clock_step(self, length: float, other_inside: bool) -> bool:
-        """Whether an IMU gap ``length`` s long may be a step of the clock every stream shares: other streams came
-        before it, none inside it (``other_inside``), and it is longer than the DVL's ping period (a DVL pinging on
-        would have shown a loss of the IMU alone). A step and a loss of every sensor at once look alike in the
-        stamps; only the loss turns the vehicle as the interpolation does."""
-        return self._other_seen and not other_inside and length > 1.5 / self.config.dvl.rate_hz
 
     def _on_sample(self, t: float, f: tuple, w: tuple, bridged: bool = False) -> list[Keyframe]:
         self._n_imu += 1
@@ -445,13 +424,11 @@ class Keyframer:
         lag = [starts[i] - stamps[i] for i in keep]
         del samples[:j]
         var_v, var_att = gap_variances(self._gaps, t_open, t) if self._gaps else (0.0, 0.0)
-        cov_turn_b = gap_turn_covariance(self._gaps, t_open, t) if self._gaps else None
         if self._gaps:
             self._gaps = [g for g in self._gaps if g.t_end > t]
         if not dt:
-            return ImuSegments(np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0), np.zeros(0), var_v, var_att,
-                               cov_turn_b)
-        return ImuSegments(np.array(f), np.array(w), np.array(dt), np.array(lag), var_v, var_att, cov_turn_b)
+            return ImuSegments(np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0), np.zeros(0), var_v, var_att)
+        return ImuSegments(np.array(f), np.array(w), np.array(dt), np.array(lag), var_v, var_att)
 
     def _close(self, p: _Pending) -> Keyframe:
         ping = self._choose_ping(p) if p.has_ping else None

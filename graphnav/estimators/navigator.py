@@ -893,8 +893,6 @@ class Navigator:
         return True
 
     def _dispatch(self, stream: str, t: float, payload: tuple) -> list[EpochEstimate]:
-        if stream != "imu":     # an IMU gap the other streams go on through is a loss, not a clock step
-            self.keyframer.other_stream_at(t)
         if self.backend is None:
             if stream == "imu":     # before the start the keyframer only keeps the sample that covers t0
                 gaps = self.keyframer.stats.imu_gaps

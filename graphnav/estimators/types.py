@@ -112,8 +112,6 @@ class ImuSegments:
         dt: (n,) segment lengths, s (they add up to the keyframe interval).
         lag: (n,) time from the sample's stamp to the segment's start, s (> 0 for a split sample).
         var_v, var_att: extra velocity ((m/s)^2) and attitude (rad^2) variance per axis over bridged IMU gaps.
-        cov_turn_b: extra attitude covariance (rad^2, 3x3 in body axes) over bridged gaps that may be clock steps
-            (:func:`graphnav.core.mission.gap_turn_covariance`), None where there is none.
     """
 
     f_b: np.ndarray
@@ -122,7 +120,6 @@ class ImuSegments:
     lag: np.ndarray
     var_v: float = 0.0
     var_att: float = 0.0
-    cov_turn_b: np.ndarray | None = None
 
 
 @dataclass(frozen=True)

@@ -219,27 +219,24 @@ class GraphContext:
         for key, n in stats.items():
             self.screening[key] += n
 
-    def gap_params(self, var_v: float, var_att: float, length: float,
-                   cov_turn_b: np.ndarray | None = None) -> gtsam.PreintegrationCombinedParams:
+    def gap_params(self, var_v: float, var_att: float, length: float) -> gtsam.PreintegrationCombinedParams:
         """Preintegration settings for a keyframe interval of ``length`` s that holds a bridged IMU gap: the
         IMU noise is inflated so that the IMU factor's velocity and rotation variances grow by ``var_v``
         ((m/s)^2) and ``var_att`` (rad^2) per axis (:func:`graphnav.core.mission.gap_variances`; GTSAM integrates
-        the continuous covariance over the interval), and the rotation's by ``cov_turn_b`` (rad^2, 3x3 body
-        axes) over a gap that may be a clock step. A new object every call: a keyframe's gravity is its own."""
+        the continuous covariance over the interval). A new object every call: a keyframe's gravity is its own."""
         params = preintegration_params(self.config, self.options)
-        if not var_v and not var_att and cov_turn_b is None:
+        if not var_v and not var_att:
             return params
         imu, length = self.config.imu, max(length, 1e-9)
         params.setAccelerometerCovariance(np.eye(3) * (imu.accel_noise_density ** 2 + var_v / length))
-        gyro = np.eye(3) * (imu.gyro_noise_density ** 2 + var_att / length)
-        params.setGyroscopeCovariance(gyro if cov_turn_b is None else gyro + cov_turn_b / length)
+        params.setGyroscopeCovariance(np.eye(3) * (imu.gyro_noise_density ** 2 + var_att / length))
         return params
 
     def preintegrate(self, imu: ImuSegments) -> tuple[gtsam.PreintegratedCombinedMeasurements,
                                                           gtsam.PreintegrationCombinedParams]:
         """The keyframe interval's IMU segments preintegrated (zero-order hold, one call per segment), with the
         settings object the preintegration holds (set its gravity with :meth:`set_gravity`)."""
-        params = self.gap_params(imu.var_v, imu.var_att, float(imu.dt.sum()), imu.cov_turn_b)
+        params = self.gap_params(imu.var_v, imu.var_att, float(imu.dt.sum()))
         pim = gtsam.PreintegratedCombinedMeasurements(params)
         # rows of the (n,3) arrays reach GTSAM as Eigen maps (lists would be converted to arrays first)
         for f, w, dt in zip(np.ascontiguousarray(imu.f_b, float), np.ascontiguousarray(imu.omega_b, float),
