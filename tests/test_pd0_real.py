@@ -361,3 +361,25 @@ def test_two_instruments_joined_after_a_cut_are_refused_naming_where_the_second_
     said = [str(w.message) for w in caught]
     assert not [s for s in said if "corrupt" in s]
     assert [s for s in said if f"ensemble 424 (byte {a}) after 1500 of its {b - a} bytes" in s]
+
+
+def test_a_time_tag_holding_0x7f7f_between_two_ensembles_is_skipped_not_called_corrupt(pd0_dir, tmp_path):
+    """winriver01.PD0 with a logger's time tag whose bytes hold 0x7F 0x7F (read as a header, its checksum failing)
+    after its 101st ensemble: the 17 bytes are skipped and counted as bytes between ensembles, and every ensemble is
+    read as in the clean file. They were called an ensemble with a wrong checksum (corrupt) left out, though no
+    ensemble was lost, and the bytes were not counted."""
+    src = pd0_dir / "winriver01.PD0"
+    raw, scan = src.read_bytes(), pd0.scan_pd0(src)
+    parts = [raw[a:b] for a, b in scan.spans]
+    parts[100] += b"$TIME\x7f\x7f12:00:01\r\n"
+    (tmp_path / src.name).write_bytes(b"".join(parts))
+    clean = _read(src)
+    log, said = _read_warned(tmp_path / src.name)
+    assert not [s for s in said if "corrupt" in s]
+    assert [s for s in said if "between ensembles" in s] == [
+        f"{tmp_path / src.name}: 17 byte(s) between ensembles belong to none and are skipped: 17 after ensemble "
+        f"{scan.numbers[100]} at byte {scan.spans[100][1]} (b'$TIME\\x7f\\x7f12:00:01\\r'...); the ensembles either "
+        "side are whole (their checksums hold) and read"]
+    assert log.counts == {**clean.counts, pd0.STRAY_BYTES: 17}
+    np.testing.assert_array_equal(log.t, clean.t)
+    np.testing.assert_array_equal(log.v_d, clean.v_d)

@@ -179,8 +179,20 @@ def _ensembles(raw: bytes, limit: int | None = None):
             pos = i + 1
             continue
         ok = (int(csum[i + length] - csum[i]) & 0xFFFF) == (raw[i + length] | (raw[i + length + 1] << 8))
+        if not ok and not _header_form(raw, i, length):      # a 0x7F 0x7F in bytes of another kind (a time tag)
+            pos = i + 1
+            continue
         yield i, length, ok
         pos = i + length + 2 if ok else i + 1
+
+
+def _header_form(raw: bytes, start: int, length: int) -> bool:
+    """Whether the bytes at ``start`` have the form of an ensemble's header (RDI P/N 951-6079-00): at least one data
+    type, and the first one's offset just past the header's own offsets (the fixed leader follows the header), within
+    ``length``. A corrupt ensemble keeps it; a 0x7F 0x7F that a logger's time tag or CR LF run happens to hold does
+    not, and is skipped with the bytes around it."""
+    n_types = raw[start + 5]
+    return n_types > 0 and 6 + 2 * n_types <= length and struct.unpack_from("<H", raw, start + 6)[0] == 6 + 2 * n_types
 
 
 def _beam_matrix(raw: bytes, start: int) -> np.ndarray | None:
@@ -1083,14 +1095,27 @@ def stalled_clock(t: np.ndarray) -> np.ndarray:
     return np.repeat(stalled, sizes) & (rank > 0)
 
 
+#: More pings than a DVL takes within one tick of its clock (1 s at most; DVLs ping at up to about 10 Hz): when
+#: every ping of a log carries one time, its clock did not run.
+FROZEN_CLOCK_PINGS = 20
+
+
 def with_spread_times(log: DvlLog) -> tuple[DvlLog, list[tuple[str, str, int]]]:
     """``log`` with the pings that share a time spread (:func:`spread_shared_times`), and what to say about them:
     ``(note, doubted reason, pings)`` for the pings of a clock that stood still (:data:`STALLED_TIME`) and for the
     others moved (:data:`SPREAD_TIME`), each when there are any. A mission's DVL stream and a dead reckoning need
     one stamp per ping. A log whose stamps run back (a CSV out of time order) is left as it is: what is shared there
-    cannot be told."""
+    cannot be told.
+
+    Raises:
+        DataError: more than :data:`FROZEN_CLOCK_PINGS` pings all carry one time: the clock did not run, and
+            spreading them within a tick would put a whole recording into 0.01 s."""
     if np.any(np.diff(np.asarray(log.t, float)) < 0):
         return log, []
+    if len(log.t) > FROZEN_CLOCK_PINGS and np.all(log.t == log.t[0]):
+        raise DataError(f"all {len(log.t)} pings carry one time ({_utc(log.t[0])}): the DVL's clock did not run (not "
+                        "set, or stopped), so when each ping was taken cannot be told; give each ping its time (a CSV "
+                        "of DVL velocities: t, vx, vy, vz)", log.source, field="time")
     t, moved = spread_shared_times(log.t)
     stalled = stalled_clock(log.t) & moved
     where = log.where or [f"ping {k}" for k in range(len(t))]
