@@ -9,11 +9,13 @@ import io
 import json
 import re
 import shutil
+import struct
 import warnings
 
 import numpy as np
 import pytest
 
+from graphnav import cli
 from graphnav.core.config import SensorConfig
 from graphnav.core.dvl import DvlGeometry
 from graphnav.core.errors import DataError
@@ -383,3 +385,29 @@ def test_a_time_tag_holding_0x7f7f_between_two_ensembles_is_skipped_not_called_c
     assert log.counts == {**clean.counts, pd0.STRAY_BYTES: 17}
     np.testing.assert_array_equal(log.t, clean.t)
     np.testing.assert_array_equal(log.v_d, clean.v_d)
+
+
+def test_an_ensemble_whose_clock_is_no_date_in_a_file_in_time_order_is_refused_naming_it(pd0_dir, tmp_path):
+    """winriver01.PD0 with the month of its 51st ensemble's clock zeroed (no date) and every other ensemble in order:
+    refused naming the ensemble and what to do, by the loader and by ``graphnav smooth``. dolfyn stamped it
+    1677-09-21, and dead reckoning alone stopped with a traceback (a 60.9 GiB array to fill the "gap")."""
+    src = pd0_dir / "winriver01.PD0"
+    raw, scan = src.read_bytes(), pd0.scan_pd0(src)
+    parts = [bytearray(raw[a:b]) for a, b in scan.spans]
+    ens = parts[50]
+    offsets = struct.unpack_from(f"<{ens[5]}H", ens, 6)
+    leader = next(o for o in offsets if struct.unpack_from("<H", ens, o)[0] == 0x0080)
+    ens[leader + 5] = 0                                        # the RTC's month (and the Y2K clock's, when kept)
+    if ens[leader + 58:leader + 65] == raw[scan.spans[50][0] + leader + 4:scan.spans[50][0] + leader + 11]:
+        ens[leader + 59] = 0
+    struct.pack_into("<H", ens, len(ens) - 2, sum(ens[:-2]) & 0xFFFF)
+    path = tmp_path / src.name
+    path.write_bytes(b"".join(parts))
+    said = (f"field 'time': the ensembles cannot be put in time order: ensemble {scan.numbers[50]} (byte "
+            f"{scan.spans[50][0]}) has a clock that is no date: it cannot be placed in time; remove that ensemble "
+            "(its bytes) from a copy of the file")
+    with pytest.raises(DataError, match=re.escape(said)):
+        _read(path)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        assert cli.main(["smooth", "--data", str(path), "--no-plots", "--out", str(tmp_path / "out")]) != 0

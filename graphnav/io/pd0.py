@@ -306,7 +306,8 @@ def _time_order(numbers: np.ndarray, t: np.ndarray, spans: list) -> tuple[np.nda
     back mid-file; sorting by the clock would interleave two stretches of pings, sorting by number would trust a
     clock known to be wrong), two different ensembles carry one time and one number (which is the instrument's
     cannot be told), sorting would interleave the numbers of two recordings that overlap in time, or a clock that
-    is no date has to be placed. A file that never runs back in time or in number within one time keeps its order.
+    is no date has to be placed (also in a file that needs no moving: dolfyn gives it a time no reader can use). A
+    file that never runs back in time or in number within one time keeps its order.
     """
     order = np.arange(len(t))
     named = [f"ensemble {n} (byte {a})" for n, (a, _) in zip(numbers, spans)]
@@ -322,6 +323,10 @@ def _time_order(numbers: np.ndarray, t: np.ndarray, spans: list) -> tuple[np.nda
     dt_s, dn = np.diff(t[known]), np.diff(numbers[known])
     back = known[:-1][(dt_s < 0) | ((dt_s == 0) & (dn < 0))]
     if not len(back):
+        if len(known) < len(t):            # dolfyn stamps it 1677-09-21, which no reader after can place either
+            bad = int(np.flatnonzero(~np.isfinite(t))[0])
+            return order, "", (f"{named[bad]} has a clock that is no date: it cannot be placed in time; remove that "
+                               "ensemble (its bytes) from a copy of the file")
         return order, "", ""
     nxt = {int(i): int(j) for i, j in zip(known[:-1], known[1:])}
     note = _back_note(named, t, int(back[0]), nxt[int(back[0])])
