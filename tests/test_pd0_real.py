@@ -411,3 +411,21 @@ def test_an_ensemble_whose_clock_is_no_date_in_a_file_in_time_order_is_refused_n
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         assert cli.main(["smooth", "--data", str(path), "--no-plots", "--out", str(tmp_path / "out")]) != 0
+
+
+def test_two_instruments_that_dolfyn_reads_as_one_are_refused_naming_where_the_second_begins(pd0_dir, tmp_path):
+    """RDI_withBT.000 (a 600 kHz Workhorse in earth coordinates, cut inside its last ensemble) with winriver01.PD0 (a
+    300 kHz Workhorse in ship coordinates) joined behind: dolfyn reads both without an error, and the 1982 pings were
+    read as one log in the first one's earth frame (the second's sorted before it by their clock). Refused, naming
+    where the instrument changes and the byte to cut at, as where dolfyn fails."""
+    first, second = pd0_dir / "RDI_withBT.000", pd0_dir / "winriver01.PD0"
+    spans, size = pd0.scan_pd0(first).spans, first.stat().st_size
+    (tmp_path / "joined.PD0").write_bytes(first.read_bytes() + second.read_bytes())
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        with pytest.raises(DataError, match=re.escape(
+                f"the instrument (firmware, beams or serial number of the fixed leader) changes from ensemble 1721 "
+                f"(byte {spans[-1][0]}) to ensemble 224 (byte {size}): recordings of two instruments joined in one "
+                f"file; load each from a file of its own (the bytes before {size} and from {size} on); a DVL log is "
+                "one instrument's")):
+            read_dvl(tmp_path / "joined.PD0")

@@ -815,16 +815,19 @@ def _dataset(path: Path, scan: Pd0Scan):
         _warn_stray(scan, source)
     if scan.cut_short:
         _warn_cut_short(scan, source)
+    change = _instrument_change(path.read_bytes(), scan)
     try:
         if scan.bad_checksum or scan.repeated or scan.moved or scan.stray or scan.cut_short:
             ds = _read_good_ensembles(path, scan)
         else:
             ds = _read_rdi(path)
     except DataError as exc:
-        change = _instrument_change(path.read_bytes(), scan)
         if not change:
             raise
         raise DataError(f"{change}; dolfyn reads one instrument per file ({exc.message})", source) from None
+    if change:          # dolfyn read them as one: the first one's frame, beams and geometry would be taken for all
+        raise DataError(f"{change}; a DVL log is one instrument's (the first one's frame and beam geometry would be "
+                        "taken for the pings of both)", source)
     if "vel_bt" not in ds:
         raise DataError("no bottom track in the file (PD0 block 0x0600 absent): an ADCP current-profile "
                         "recording without bottom tracking gives no velocity over the seabed", source,
