@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import datetime as dt
 import json
+import re
 import struct
 import warnings
 
@@ -17,6 +18,7 @@ import numpy as np
 import pytest
 
 from graphnav import cli
+from graphnav.core.errors import DataError
 from graphnav.io.pd0 import read_pd0_log
 from graphnav.missions import load_mission
 from graphnav.sim.simulate import simulate_mission
@@ -805,3 +807,23 @@ def test_a_file_cut_inside_an_ensemble_with_another_recording_joined_behind_name
     clean = _quiet_read(root / "dvl.000")
     np.testing.assert_array_equal(log.t[:k], clean.t[:k])
     np.testing.assert_array_equal(log.t[k:] - 3600.0, clean.t[:len(log.t) - k])
+
+
+def test_a_dvl_clock_that_never_ran_is_refused_not_squeezed_into_a_hundredth(sim, tmp_path, capsys):
+    """Every ping of a PD0 file carrying one time (a clock not set, or stopped, for the whole recording): dead-reckoned
+    alone and read for a mission it is refused, naming the time and what to do. Dead reckoning alone gave a track of
+    all its pings within 0.01 s (0.02 m for a 650 m run, warned only as pings spread within the clock's tick), and a
+    mission's DVL stream had them all within 0.01 s."""
+    from graphnav.io.pd0 import read_pd0
+    mission, _ = sim
+    path = tmp_path / "dvl.000"
+    write_pd0(path, mission, t_s=np.full(len(mission.dvl.t), 10.37))
+    said = (r"field 'time': all \d+ pings carry one time \(2024-05-01 12:00:10.37\): the DVL's clock did not run "
+            r"\(not set, or stopped\), so when each ping was taken cannot be told; give each ping its time")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        with pytest.raises(DataError, match=said):
+            read_pd0(path)
+        assert cli.main(["smooth", "--data", str(path), "--no-plots", "--out", str(tmp_path / "out")]) != 0
+    assert re.search(said, capsys.readouterr().err)
+    assert not (tmp_path / "out" / "trajectory.csv").exists()

@@ -9,11 +9,13 @@ import io
 import json
 import re
 import shutil
+import struct
 import warnings
 
 import numpy as np
 import pytest
 
+from graphnav import cli
 from graphnav.core.config import SensorConfig
 from graphnav.core.dvl import DvlGeometry
 from graphnav.core.errors import DataError
@@ -361,3 +363,69 @@ def test_two_instruments_joined_after_a_cut_are_refused_naming_where_the_second_
     said = [str(w.message) for w in caught]
     assert not [s for s in said if "corrupt" in s]
     assert [s for s in said if f"ensemble 424 (byte {a}) after 1500 of its {b - a} bytes" in s]
+
+
+def test_a_time_tag_holding_0x7f7f_between_two_ensembles_is_skipped_not_called_corrupt(pd0_dir, tmp_path):
+    """winriver01.PD0 with a logger's time tag whose bytes hold 0x7F 0x7F (read as a header, its checksum failing)
+    after its 101st ensemble: the 17 bytes are skipped and counted as bytes between ensembles, and every ensemble is
+    read as in the clean file. They were called an ensemble with a wrong checksum (corrupt) left out, though no
+    ensemble was lost, and the bytes were not counted."""
+    src = pd0_dir / "winriver01.PD0"
+    raw, scan = src.read_bytes(), pd0.scan_pd0(src)
+    parts = [raw[a:b] for a, b in scan.spans]
+    parts[100] += b"$TIME\x7f\x7f12:00:01\r\n"
+    (tmp_path / src.name).write_bytes(b"".join(parts))
+    clean = _read(src)
+    log, said = _read_warned(tmp_path / src.name)
+    assert not [s for s in said if "corrupt" in s]
+    assert [s for s in said if "between ensembles" in s] == [
+        f"{tmp_path / src.name}: 17 byte(s) between ensembles belong to none and are skipped: 17 after ensemble "
+        f"{scan.numbers[100]} at byte {scan.spans[100][1]} (b'$TIME\\x7f\\x7f12:00:01\\r'...); the ensembles either "
+        "side are whole (their checksums hold) and read"]
+    assert log.counts == {**clean.counts, pd0.STRAY_BYTES: 17}
+    np.testing.assert_array_equal(log.t, clean.t)
+    np.testing.assert_array_equal(log.v_d, clean.v_d)
+
+
+def test_an_ensemble_whose_clock_is_no_date_in_a_file_in_time_order_is_refused_naming_it(pd0_dir, tmp_path):
+    """winriver01.PD0 with the month of its 51st ensemble's clock zeroed (no date) and every other ensemble in order:
+    refused naming the ensemble and what to do, by the loader and by ``graphnav smooth``. dolfyn stamped it
+    1677-09-21, and dead reckoning alone stopped with a traceback (a 60.9 GiB array to fill the "gap")."""
+    src = pd0_dir / "winriver01.PD0"
+    raw, scan = src.read_bytes(), pd0.scan_pd0(src)
+    parts = [bytearray(raw[a:b]) for a, b in scan.spans]
+    ens = parts[50]
+    offsets = struct.unpack_from(f"<{ens[5]}H", ens, 6)
+    leader = next(o for o in offsets if struct.unpack_from("<H", ens, o)[0] == 0x0080)
+    ens[leader + 5] = 0                                        # the RTC's month (and the Y2K clock's, when kept)
+    if ens[leader + 58:leader + 65] == raw[scan.spans[50][0] + leader + 4:scan.spans[50][0] + leader + 11]:
+        ens[leader + 59] = 0
+    struct.pack_into("<H", ens, len(ens) - 2, sum(ens[:-2]) & 0xFFFF)
+    path = tmp_path / src.name
+    path.write_bytes(b"".join(parts))
+    said = (f"field 'time': the ensembles cannot be put in time order: ensemble {scan.numbers[50]} (byte "
+            f"{scan.spans[50][0]}) has a clock that is no date: it cannot be placed in time; remove that ensemble "
+            "(its bytes) from a copy of the file")
+    with pytest.raises(DataError, match=re.escape(said)):
+        _read(path)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        assert cli.main(["smooth", "--data", str(path), "--no-plots", "--out", str(tmp_path / "out")]) != 0
+
+
+def test_two_instruments_that_dolfyn_reads_as_one_are_refused_naming_where_the_second_begins(pd0_dir, tmp_path):
+    """RDI_withBT.000 (a 600 kHz Workhorse in earth coordinates, cut inside its last ensemble) with winriver01.PD0 (a
+    300 kHz Workhorse in ship coordinates) joined behind: dolfyn reads both without an error, and the 1982 pings were
+    read as one log in the first one's earth frame (the second's sorted before it by their clock). Refused, naming
+    where the instrument changes and the byte to cut at, as where dolfyn fails."""
+    first, second = pd0_dir / "RDI_withBT.000", pd0_dir / "winriver01.PD0"
+    spans, size = pd0.scan_pd0(first).spans, first.stat().st_size
+    (tmp_path / "joined.PD0").write_bytes(first.read_bytes() + second.read_bytes())
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        with pytest.raises(DataError, match=re.escape(
+                f"the instrument (firmware, beams or serial number of the fixed leader) changes from ensemble 1721 "
+                f"(byte {spans[-1][0]}) to ensemble 224 (byte {size}): recordings of two instruments joined in one "
+                f"file; load each from a file of its own (the bytes before {size} and from {size} on); a DVL log is "
+                "one instrument's")):
+            read_dvl(tmp_path / "joined.PD0")

@@ -179,8 +179,20 @@ def _ensembles(raw: bytes, limit: int | None = None):
             pos = i + 1
             continue
         ok = (int(csum[i + length] - csum[i]) & 0xFFFF) == (raw[i + length] | (raw[i + length + 1] << 8))
+        if not ok and not _header_form(raw, i, length):      # a 0x7F 0x7F in bytes of another kind (a time tag)
+            pos = i + 1
+            continue
         yield i, length, ok
         pos = i + length + 2 if ok else i + 1
+
+
+def _header_form(raw: bytes, start: int, length: int) -> bool:
+    """Whether the bytes at ``start`` have the form of an ensemble's header (RDI P/N 951-6079-00): at least one data
+    type, and the first one's offset just past the header's own offsets (the fixed leader follows the header), within
+    ``length``. A corrupt ensemble keeps it; a 0x7F 0x7F that a logger's time tag or CR LF run happens to hold does
+    not, and is skipped with the bytes around it."""
+    n_types = raw[start + 5]
+    return n_types > 0 and 6 + 2 * n_types <= length and struct.unpack_from("<H", raw, start + 6)[0] == 6 + 2 * n_types
 
 
 def _beam_matrix(raw: bytes, start: int) -> np.ndarray | None:
@@ -294,7 +306,8 @@ def _time_order(numbers: np.ndarray, t: np.ndarray, spans: list) -> tuple[np.nda
     back mid-file; sorting by the clock would interleave two stretches of pings, sorting by number would trust a
     clock known to be wrong), two different ensembles carry one time and one number (which is the instrument's
     cannot be told), sorting would interleave the numbers of two recordings that overlap in time, or a clock that
-    is no date has to be placed. A file that never runs back in time or in number within one time keeps its order.
+    is no date has to be placed (also in a file that needs no moving: dolfyn gives it a time no reader can use). A
+    file that never runs back in time or in number within one time keeps its order.
     """
     order = np.arange(len(t))
     named = [f"ensemble {n} (byte {a})" for n, (a, _) in zip(numbers, spans)]
@@ -310,6 +323,10 @@ def _time_order(numbers: np.ndarray, t: np.ndarray, spans: list) -> tuple[np.nda
     dt_s, dn = np.diff(t[known]), np.diff(numbers[known])
     back = known[:-1][(dt_s < 0) | ((dt_s == 0) & (dn < 0))]
     if not len(back):
+        if len(known) < len(t):            # dolfyn stamps it 1677-09-21, which no reader after can place either
+            bad = int(np.flatnonzero(~np.isfinite(t))[0])
+            return order, "", (f"{named[bad]} has a clock that is no date: it cannot be placed in time; remove that "
+                               "ensemble (its bytes) from a copy of the file")
         return order, "", ""
     nxt = {int(i): int(j) for i, j in zip(known[:-1], known[1:])}
     note = _back_note(named, t, int(back[0]), nxt[int(back[0])])
@@ -798,16 +815,19 @@ def _dataset(path: Path, scan: Pd0Scan):
         _warn_stray(scan, source)
     if scan.cut_short:
         _warn_cut_short(scan, source)
+    change = _instrument_change(path.read_bytes(), scan)
     try:
         if scan.bad_checksum or scan.repeated or scan.moved or scan.stray or scan.cut_short:
             ds = _read_good_ensembles(path, scan)
         else:
             ds = _read_rdi(path)
     except DataError as exc:
-        change = _instrument_change(path.read_bytes(), scan)
         if not change:
             raise
         raise DataError(f"{change}; dolfyn reads one instrument per file ({exc.message})", source) from None
+    if change:          # dolfyn read them as one: the first one's frame, beams and geometry would be taken for all
+        raise DataError(f"{change}; a DVL log is one instrument's (the first one's frame and beam geometry would be "
+                        "taken for the pings of both)", source)
     if "vel_bt" not in ds:
         raise DataError("no bottom track in the file (PD0 block 0x0600 absent): an ADCP current-profile "
                         "recording without bottom tracking gives no velocity over the seabed", source,
@@ -1083,14 +1103,27 @@ def stalled_clock(t: np.ndarray) -> np.ndarray:
     return np.repeat(stalled, sizes) & (rank > 0)
 
 
+#: More pings than a DVL takes within one tick of its clock (1 s at most; DVLs ping at up to about 10 Hz): when
+#: every ping of a log carries one time, its clock did not run.
+FROZEN_CLOCK_PINGS = 20
+
+
 def with_spread_times(log: DvlLog) -> tuple[DvlLog, list[tuple[str, str, int]]]:
     """``log`` with the pings that share a time spread (:func:`spread_shared_times`), and what to say about them:
     ``(note, doubted reason, pings)`` for the pings of a clock that stood still (:data:`STALLED_TIME`) and for the
     others moved (:data:`SPREAD_TIME`), each when there are any. A mission's DVL stream and a dead reckoning need
     one stamp per ping. A log whose stamps run back (a CSV out of time order) is left as it is: what is shared there
-    cannot be told."""
+    cannot be told.
+
+    Raises:
+        DataError: more than :data:`FROZEN_CLOCK_PINGS` pings all carry one time: the clock did not run, and
+            spreading them within a tick would put a whole recording into 0.01 s."""
     if np.any(np.diff(np.asarray(log.t, float)) < 0):
         return log, []
+    if len(log.t) > FROZEN_CLOCK_PINGS and np.all(log.t == log.t[0]):
+        raise DataError(f"all {len(log.t)} pings carry one time ({_utc(log.t[0])}): the DVL's clock did not run (not "
+                        "set, or stopped), so when each ping was taken cannot be told; give each ping its time (a CSV "
+                        "of DVL velocities: t, vx, vy, vz)", log.source, field="time")
     t, moved = spread_shared_times(log.t)
     stalled = stalled_clock(log.t) & moved
     where = log.where or [f"ping {k}" for k in range(len(t))]
