@@ -237,3 +237,16 @@ def test_cli_stream_warns_once_of_config_keys_a_stream_does_not_apply(tmp_path):
     assert said == [f"{config}: imu_axis_signs, dvl_time_offset_s not applied to a live stream: its records "
                     "are taken as body FRD on the IMU clock (graphnav online --schema); flip the IMU axes and add the "
                     "offsets where the stream is written (csv_columns and bag_topics describe files)"]
+
+
+def test_an_all_zero_live_imu_record_is_said_to_be_filler_not_a_unit_to_declare():
+    """A live IMU record of six zeros (a logger's filler) or a dead accelerometer beside a live gyro was skipped with
+    the advice to declare the accelerometer's unit or to swap accelerometer and gyro: no unit makes gravity read 0."""
+    from graphnav.core.screening import ACCEL_ZERO, IMU_FILLER
+    filler = '{"type": "imu", "t": 0.01, "f_b": [0, 0, 0], "omega_b": [0, 0, 0]}'
+    dead = '{"type": "imu", "t": 0.02, "f_b": [0, 0, 0], "omega_b": [0.01, 0, 0]}'
+    with pytest.warns(RuntimeWarning) as said:
+        reader = StreamReader(io.StringIO(filler + "\n" + dead + "\n"), "<s>")
+        assert list(reader) == []
+    text = " ".join(str(w.message) for w in said)
+    assert IMU_FILLER in text and ACCEL_ZERO in text and "declare accel" not in text, text

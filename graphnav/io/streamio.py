@@ -62,6 +62,7 @@ import numpy as np
 
 from graphnav.core.config import ConfigOverrides
 from graphnav.core.errors import ConfigError
+from graphnav.core.screening import ACCEL_ZERO, IMU_FILLER
 from graphnav.io.units import DECLARED_UNITS
 
 #: Fields each record type needs (besides ``type``).
@@ -148,6 +149,8 @@ class StreamReader:
             f = math.sqrt(sum(x * x for x in rec["f_b"]))
             if w > MAX_RATE_RADPS:
                 return f"|omega_b| {w:.4g} rad/s is beyond any AUV's turn rate (deg/s? declare gyro in a units record)"
+            if f == 0.0:         # no unit makes gravity read 0: no measurement, not a unit to declare
+                return IMU_FILLER if w == 0.0 else ACCEL_ZERO
             if not MIN_ACCEL_MPS2 <= f <= MAX_ACCEL_MPS2:
                 return (f"|f_b| {f:.4g} m/s^2 is not gravity plus vehicle accelerations (g? declare accel in a units "
                         "record; ~0 with |omega_b| ~9.8: accelerometer and gyro swapped)")
