@@ -3043,8 +3043,7 @@ def test_an_imu_of_filler_only_or_filler_beside_nan_rows_past_the_bridge_limit_i
     y[1000:1025] = 0.0
     y[1025:1050] = np.nan
     with pytest.raises(DataError, match=r"imu\.csv, line 1052: IMU gap left by 50 IMU row\(s\) without a measurement "
-                                        r"\(25 all-zero: a logger's filler; the others NaN or infinite, or a dead "
-                                        r"accelerometer's zeros\) "
+                                        r"\(25 all-zero: a logger's filler; the others NaN or infinite\) "
                                         r"of 700\.51 s after t = 9\.990 s"):
         imu_unmeasured(t_gap, y[:, :3], y[:, 3:], source="imu.csv", lines=lines)
     y[1025:1050] = x[1025:1050]            # the same stamps, the rows after the filler real: 350 s, bridged
@@ -3134,6 +3133,34 @@ def test_an_imu_almost_all_filler_is_refused_naming_the_file_and_the_share(akit_
     _edit_lines(folder / "IMU_trajectory1.csv", filler)
     with pytest.warns(RuntimeWarning), pytest.raises(DataError, match=rf"IMU_trajectory1\.csv: {share}"):
         load_akit(folder)
+
+
+def test_an_imu_gap_of_filler_and_dead_accelerometer_rows_names_each_kind_not_nan(akit_dir, tmp_path):
+    """Trajectory1 as a column map with 700 s at 1 Hz inside it of 349 all-zero filler rows then 350 rows of a dead
+    accelerometer (0, 0, 0 beside a live gyro): refused as the IMU stopping, but the message said '349 all-zero: a
+    logger's filler; the others NaN or infinite', and the file holds no NaN. Each kind is named with its count; a run of
+    dead-accelerometer rows alone says so, and filler beside NaN rows reads as before."""
+    from graphnav.core.screening import imu_unmeasured
+    from graphnav.missions import load_mission
+    from tests.test_generic_csv import _akit_as_column_map
+
+    def later(lines):
+        head, tail = lines[:20001], lines[20001:]
+        gap = [f"{199.995 + k!r},{'0,0,0,0,0,0' if k < 350 else '0,0,0,0.01,0.02,0.03'}" for k in range(1, 700)]
+        return head + gap + [f"{float(line.split(',')[0]) + 700.0!r},{line.split(',', 1)[1]}" for line in tail]
+    data, config = _akit_as_column_map(akit_dir, tmp_path / "dead", imu_edit=later)
+    with pytest.raises(DataError, match=r"imu\.csv, line 20701: IMU gap left by 699 IMU row\(s\) without a measurement "
+                                        r"\(349 all-zero: a logger's filler; 350 of a dead accelerometer: its three "
+                                        r"values 0 beside a live gyro\) of 700\.01 s after t = 199\.995 s"):
+        load_mission(data, config)
+    t, f_b, omega_b = np.arange(10.0) * 100.0, np.tile([0.1, 0.0, -9.8], (10, 1)), np.full((10, 3), 0.01)
+    f_b[1:8] = 0.0
+    with pytest.raises(DataError, match=r"IMU gap left by 7 IMU row\(s\) without a measurement \(7 of a dead "
+                                        r"accelerometer: its three values 0 beside a live gyro\) of 800 s"):
+        imu_unmeasured(t, f_b, omega_b, source="imu.csv")
+    f_b[1:4], omega_b[1:4], f_b[4:8] = 0.0, 0.0, np.nan
+    with pytest.raises(DataError, match=r"\(3 all-zero: a logger's filler; the others NaN or infinite\) of 800 s"):
+        imu_unmeasured(t, f_b, omega_b, source="imu.csv")
 
 
 def test_a_dvl_without_a_ping_in_the_reference_span_is_refused_naming_its_file(akit_dir, tmp_path):
