@@ -3175,7 +3175,27 @@ def test_a_dvl_without_a_ping_in_the_reference_span_is_refused_naming_its_file(a
     with pytest.raises(DataError) as err:
         _quiet_load(load_akit, folder)
     assert err.value.source == str(folder / "DVL_trajectory1.csv")
-    assert re.search(r"no DVL ping with a velocity inside the reference span \[0\.000, 99\.\d+\] s", str(err.value))
+    assert re.search(r"no DVL ping with a velocity inside \[3\.000, 96\.\d+\] s, the reference span "
+                     r"\[0\.000, 99\.\d+\] s", str(err.value))
+
+
+def test_a_dvl_whose_pings_with_a_velocity_lie_only_where_the_offset_search_cannot_use_them_is_told_where(
+        akit_dir, tmp_path):
+    """Trajectory1 with its GT cut to the first 100 s and the DVL's velocity only at 97.2, 98.2 and 99.2 s (in the
+    file): refused as 'no DVL ping with a velocity inside the reference span [0.000, 99.590] s', and the file has three
+    there. The offset search moves each ping by up to 3 s, so only pings 3 s inside the span are used: the message
+    names that window, [3.000, 96.590] s, and the three pings lie outside it."""
+    from graphnav.missions import load_akit
+    folder = _copy_trajectory(akit_dir, tmp_path)
+    _edit_lines(folder / "GT_trajectory1.csv", lambda lines: lines[:102])
+    _edit_lines(folder / "DVL_trajectory1.csv", lambda lines: lines[:1] + [
+        line if 97.0 <= float(line.split(",")[0]) < 100.0 else line.split(",")[0] + ",,," for line in lines[1:]])
+    with pytest.raises(DataError) as err:
+        _quiet_load(load_akit, folder)
+    assert err.value.source == str(folder / "DVL_trajectory1.csv")
+    window = re.search(r"no DVL ping with a velocity inside \[(\S+), (\S+)\] s, the reference span \[0\.000, "
+                       r"99\.\d+\] s less the 3 s at either end that the offset search moves a ping", str(err.value))
+    assert window and float(window[1]) == 3.0 and 96.5 < float(window[2]) < 97.0
 
 
 def test_a_dead_accelerometer_beside_a_live_gyro_is_refused_and_counted_a_quantized_resting_gyro_is_not():
