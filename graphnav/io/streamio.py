@@ -62,6 +62,7 @@ import numpy as np
 
 from graphnav.core.config import ConfigOverrides
 from graphnav.core.errors import ConfigError
+from graphnav.core.screening import IMU_FILLER
 from graphnav.io.units import DECLARED_UNITS
 
 #: Fields each record type needs (besides ``type``).
@@ -144,6 +145,9 @@ class StreamReader:
         if abs(rec["t"]) > MAX_STAMP_S:
             return f"stamp {rec['t']:.6g} s is not seconds (declare the time unit in a units record)"
         if rec["type"] == "imu":
+            if not any(rec["f_b"]) and not any(rec["omega_b"]):
+                # six zeros are so in any unit: a logger's filler, not g or swapped sensors (the advice below)
+                return f"{IMU_FILLER}; the gap it leaves is bridged as any IMU gap"
             w = math.sqrt(sum(x * x for x in rec["omega_b"]))
             f = math.sqrt(sum(x * x for x in rec["f_b"]))
             if w > MAX_RATE_RADPS:
