@@ -3043,8 +3043,7 @@ def test_an_imu_of_filler_only_or_filler_beside_nan_rows_past_the_bridge_limit_i
     y[1000:1025] = 0.0
     y[1025:1050] = np.nan
     with pytest.raises(DataError, match=r"imu\.csv, line 1052: IMU gap left by 50 IMU row\(s\) without a measurement "
-                                        r"\(25 all-zero: a logger's filler; the others NaN or infinite, or a dead "
-                                        r"accelerometer's zeros\) "
+                                        r"\(25 all-zero: a logger's filler; the others NaN or infinite\) "
                                         r"of 700\.51 s after t = 9\.990 s"):
         imu_unmeasured(t_gap, y[:, :3], y[:, 3:], source="imu.csv", lines=lines)
     y[1025:1050] = x[1025:1050]            # the same stamps, the rows after the filler real: 350 s, bridged
@@ -3136,6 +3135,34 @@ def test_an_imu_almost_all_filler_is_refused_naming_the_file_and_the_share(akit_
         load_akit(folder)
 
 
+def test_an_imu_gap_of_filler_and_dead_accelerometer_rows_names_each_kind_not_nan(akit_dir, tmp_path):
+    """Trajectory1 as a column map with 700 s at 1 Hz inside it of 349 all-zero filler rows then 350 rows of a dead
+    accelerometer (0, 0, 0 beside a live gyro): refused as the IMU stopping, but the message said '349 all-zero: a
+    logger's filler; the others NaN or infinite', and the file holds no NaN. Each kind is named with its count; a run of
+    dead-accelerometer rows alone says so, and filler beside NaN rows reads as before."""
+    from graphnav.core.screening import imu_unmeasured
+    from graphnav.missions import load_mission
+    from tests.test_generic_csv import _akit_as_column_map
+
+    def later(lines):
+        head, tail = lines[:20001], lines[20001:]
+        gap = [f"{199.995 + k!r},{'0,0,0,0,0,0' if k < 350 else '0,0,0,0.01,0.02,0.03'}" for k in range(1, 700)]
+        return head + gap + [f"{float(line.split(',')[0]) + 700.0!r},{line.split(',', 1)[1]}" for line in tail]
+    data, config = _akit_as_column_map(akit_dir, tmp_path / "dead", imu_edit=later)
+    with pytest.raises(DataError, match=r"imu\.csv, line 20701: IMU gap left by 699 IMU row\(s\) without a measurement "
+                                        r"\(349 all-zero: a logger's filler; 350 of a dead accelerometer: its three "
+                                        r"values 0 beside a live gyro\) of 700\.01 s after t = 199\.995 s"):
+        load_mission(data, config)
+    t, f_b, omega_b = np.arange(10.0) * 100.0, np.tile([0.1, 0.0, -9.8], (10, 1)), np.full((10, 3), 0.01)
+    f_b[1:8] = 0.0
+    with pytest.raises(DataError, match=r"IMU gap left by 7 IMU row\(s\) without a measurement \(7 of a dead "
+                                        r"accelerometer: its three values 0 beside a live gyro\) of 800 s"):
+        imu_unmeasured(t, f_b, omega_b, source="imu.csv")
+    f_b[1:4], omega_b[1:4], f_b[4:8] = 0.0, 0.0, np.nan
+    with pytest.raises(DataError, match=r"\(3 all-zero: a logger's filler; the others NaN or infinite\) of 800 s"):
+        imu_unmeasured(t, f_b, omega_b, source="imu.csv")
+
+
 def test_a_dvl_without_a_ping_in_the_reference_span_is_refused_naming_its_file(akit_dir, tmp_path):
     """Trajectory1 with its GT cut to the first 100 s and the DVL's velocity empty over its first 110 s: the DVL's time
     offset against the GT has no ping to fit, refused naming 'dvl', not the file. It names the DVL's file and the
@@ -3148,7 +3175,27 @@ def test_a_dvl_without_a_ping_in_the_reference_span_is_refused_naming_its_file(a
     with pytest.raises(DataError) as err:
         _quiet_load(load_akit, folder)
     assert err.value.source == str(folder / "DVL_trajectory1.csv")
-    assert re.search(r"no DVL ping with a velocity inside the reference span \[0\.000, 99\.\d+\] s", str(err.value))
+    assert re.search(r"no DVL ping with a velocity inside \[3\.000, 96\.\d+\] s, the reference span "
+                     r"\[0\.000, 99\.\d+\] s", str(err.value))
+
+
+def test_a_dvl_whose_pings_with_a_velocity_lie_only_where_the_offset_search_cannot_use_them_is_told_where(
+        akit_dir, tmp_path):
+    """Trajectory1 with its GT cut to the first 100 s and the DVL's velocity only at 97.2, 98.2 and 99.2 s (in the
+    file): refused as 'no DVL ping with a velocity inside the reference span [0.000, 99.590] s', and the file has three
+    there. The offset search moves each ping by up to 3 s, so only pings 3 s inside the span are used: the message
+    names that window, [3.000, 96.590] s, and the three pings lie outside it."""
+    from graphnav.missions import load_akit
+    folder = _copy_trajectory(akit_dir, tmp_path)
+    _edit_lines(folder / "GT_trajectory1.csv", lambda lines: lines[:102])
+    _edit_lines(folder / "DVL_trajectory1.csv", lambda lines: lines[:1] + [
+        line if 97.0 <= float(line.split(",")[0]) < 100.0 else line.split(",")[0] + ",,," for line in lines[1:]])
+    with pytest.raises(DataError) as err:
+        _quiet_load(load_akit, folder)
+    assert err.value.source == str(folder / "DVL_trajectory1.csv")
+    window = re.search(r"no DVL ping with a velocity inside \[(\S+), (\S+)\] s, the reference span \[0\.000, "
+                       r"99\.\d+\] s less the 3 s at either end that the offset search moves a ping", str(err.value))
+    assert window and float(window[1]) == 3.0 and 96.5 < float(window[2]) < 97.0
 
 
 def test_a_dead_accelerometer_beside_a_live_gyro_is_refused_and_counted_a_quantized_resting_gyro_is_not():

@@ -180,6 +180,31 @@ def test_refusals_name_the_field():
         dvl_speed_scale(None, np.full((10, 3), 3e4), "dvl.csv")
 
 
+def test_stream_reader_refuses_a_loggers_all_zero_imu_row_as_filler_not_as_a_unit_mix_up():
+    """A live stream (``graphnav online --stream``) with IMU records of six zeros, a logger's filler, stamp kept or
+    zeroed too: each was refused as '|f_b| 0 m/s^2 is not gravity plus vehicle accelerations (g? declare accel in a
+    units record; ~0 with |omega_b| ~9.8: accelerometer and gyro swapped)', advice no unit or swap follows. They are
+    refused as the filler they are, as the loaders refuse them; a sample in g is still told to declare it."""
+    import json
+
+    from graphnav.io.streamio import StreamReader
+    lines = [json.dumps(r) for r in (
+        {"type": "imu", "t": 1.0, "f_b": [0.0, 0.0, -9.8], "omega_b": [0.0, 0.0, 0.01]},
+        {"type": "imu", "t": 1.01, "f_b": [0.0, 0.0, 0.0], "omega_b": [0.0, 0.0, 0.0]},
+        {"type": "imu", "t": 0.0, "f_b": [0.0, -0.0, 0.0], "omega_b": [0.0, 0.0, 0.0]},
+        {"type": "imu", "t": 1.03, "f_b": [0.0, 0.0, -1.0], "omega_b": [0.0, 0.0, 0.6]},
+    )]
+    reader = StreamReader(lines, "test")
+    with pytest.warns(RuntimeWarning) as caught:
+        recs = list(reader)
+    said = [str(w.message) for w in caught]
+    for line in (2, 3):
+        assert any(f"line {line}: imu sample refused: all-zero IMU row (a logger's filler: zero specific force is "
+                   "impossible under gravity); the gap it leaves is bridged" in w and "declare" not in w for w in said)
+    assert any("line 4: imu sample refused" in w and "declare accel" in w for w in said)
+    assert reader.refused == {"imu": 3} and [r["_line"] for r in recs] == [1]
+
+
 def test_stream_reader_converts_declared_units_and_refuses_implausible_samples():
     import json
 

@@ -291,9 +291,15 @@ def estimate_dvl_time_offset(reference: Reference, t_dvl_raw: np.ndarray, v_dvl:
     if ok.sum() < 10:
         raise DataError("too little overlap between DVL and reference to estimate a time offset", source)
     if not np.all(np.isfinite(v_dvl[ok]), axis=1).any():        # the fit would divide by zero pings
+        # the window the pings were taken from (``ok``), not the whole span: a ping nearer an end than the search
+        # reaches is not used, and naming the span sent users to velocities the fit never saw
         span = max(reference.t_ref[0], reference.t_imu[0]), min(reference.t_ref[-1], reference.t_imu[-1])
-        raise DataError(f"no DVL ping with a velocity inside the reference span [{span[0]:.3f}, {span[1]:.3f}] s "
-                        f"to estimate a time offset ({int(ok.sum())} ping(s) there, none with a velocity)", source)
+        margin = f"{-search_s[0]:g} s" + (f" at its start, {search_s[1]:g} s at its end" if -search_s[0] != search_s[1]
+                                          else " at either end")
+        used = span[0] - search_s[0], span[1] - search_s[1]
+        raise DataError(f"no DVL ping with a velocity inside [{used[0]:.3f}, {used[1]:.3f}] s, the reference span "
+                        f"[{span[0]:.3f}, {span[1]:.3f}] s less the {margin} that the offset search moves a ping, to "
+                        f"estimate a time offset ({int(ok.sum())} ping(s) there, none with a velocity)", source)
 
     def fit(offset):
         r, omega, _, _ = dvl_design(reference, t_raw + offset, v_dvl, ok)

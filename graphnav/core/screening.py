@@ -724,7 +724,8 @@ def imu_unmeasured(t: np.ndarray, f_b: np.ndarray, omega_b: np.ndarray, fields=I
     filler = imu_filler(f_b, omega_b)
     dead = ~np.any(np.asarray(f_b, float) != 0.0, axis=1) & ~filler
     nan = not_finite(np.hstack([f_b, omega_b]), fields)
-    check_filler_gaps(t, filler, source, lines, unmeasured=np.any([filler, dead, *nan.values()], axis=0), where=where)
+    check_filler_gaps(t, filler, source, lines, unmeasured=np.any([filler, dead, *nan.values()], axis=0), where=where,
+                      dead=dead)
     return {IMU_FILLER: filler, ACCEL_ZERO: dead, **nan}
 
 
@@ -759,7 +760,8 @@ def whole_hours(step_s: float) -> str:
 
 
 def check_filler_gaps(t: np.ndarray, filler: np.ndarray, source: str, lines: np.ndarray | None = None,
-                      unmeasured: np.ndarray | None = None, where: list[str] | None = None) -> None:
+                      unmeasured: np.ndarray | None = None, where: list[str] | None = None,
+                      dead: np.ndarray | None = None) -> None:
     """DataError (:func:`check_imu_gap`, naming ``source``, the stamps around the gap and, when ``lines`` gives it,
     the file line of the row after it, or ``where`` the file holds it: a bag's message) when a run of rows without a
     measurement between two other rows at stamps ``t`` (N,) s leaves an IMU gap longer than can be bridged: the IMU
@@ -767,21 +769,31 @@ def check_filler_gaps(t: np.ndarray, filler: np.ndarray, source: str, lines: np.
     all-zero rows; ``unmeasured`` (N,) bool: those and any other row refused for holding no measurement (a NaN, a dead
     accelerometer, :func:`imu_unmeasured`; default ``filler``): filler next to NaN rows leaves one gap, and so do NaN
     rows alone. A run at either end of the file only starts the IMU later or ends it earlier; a file of filler only is
-    a DataError too (the IMU delivered nothing)."""
+    a DataError too (the IMU delivered nothing). ``dead`` (N,) bool: the rows of a dead accelerometer among
+    ``unmeasured`` (:data:`ACCEL_ZERO`; default none), which the message names as such (:func:`_left_by`)."""
     t, filler = np.asarray(t, float), np.asarray(filler, bool)
+    dead = np.zeros(len(t), bool) if dead is None else np.asarray(dead, bool)
     _check_not_all_filler(filler, source, lines)
     gone = filler if unmeasured is None else np.asarray(unmeasured, bool)
     for a, last in _runs(gone):
         b = last + 1
         if a > 0 and b < len(t):
-            zeros = int(filler[a:b].sum())
-            left_by = (f"{b - a} all-zero IMU row(s) (a logger's filler)" if zeros == b - a else
-                       f"{b - a} IMU row(s) without a measurement ({zeros} all-zero: a logger's filler; the others NaN "
-                       "or infinite, or a dead accelerometer's zeros)" if zeros else
-                       f"{b - a} IMU row(s) without a measurement (NaN or infinite values, or a dead accelerometer)")
             at = "" if where is None else f"{where[b]}: "
             check_imu_gap(float(t[a - 1]), float(t[b]), source, None if lines is None else int(lines[b]), None,
-                          what=f"{at}IMU gap left by {left_by}")
+                          what=f"{at}IMU gap left by {_left_by(b - a, int(filler[a:b].sum()), int(dead[a:b].sum()))}")
+
+
+def _left_by(rows: int, zeros: int, dead: int) -> str:
+    """What a run of ``rows`` IMU rows without a measurement held, ``zeros`` of them a logger's filler and ``dead``
+    a dead accelerometer's, the others NaN or infinite: each kind named, so the user looks for what the file holds
+    (a run of filler and dead-accelerometer rows was said to hold NaN)."""
+    if zeros == rows:
+        return f"{rows} all-zero IMU row(s) (a logger's filler)"
+    kinds = [f"{zeros} all-zero: a logger's filler"] * bool(zeros) + [
+        f"{dead} of a dead accelerometer: its three values 0 beside a live gyro"] * bool(dead)
+    if rows > zeros + dead:
+        kinds.append("the others NaN or infinite" if kinds else "NaN or infinite values")
+    return f"{rows} IMU row(s) without a measurement ({'; '.join(kinds)})"
 
 
 def _check_not_all_filler(filler: np.ndarray, source: str, lines: np.ndarray | None) -> None:

@@ -145,12 +145,15 @@ class StreamReader:
         if abs(rec["t"]) > MAX_STAMP_S:
             return f"stamp {rec['t']:.6g} s is not seconds (declare the time unit in a units record)"
         if rec["type"] == "imu":
+            if not any(rec["f_b"]) and not any(rec["omega_b"]):
+                # six zeros are so in any unit: a logger's filler, not g or swapped sensors (the advice below)
+                return f"{IMU_FILLER}; the gap it leaves is bridged as any IMU gap"
             w = math.sqrt(sum(x * x for x in rec["omega_b"]))
             f = math.sqrt(sum(x * x for x in rec["f_b"]))
             if w > MAX_RATE_RADPS:
                 return f"|omega_b| {w:.4g} rad/s is beyond any AUV's turn rate (deg/s? declare gyro in a units record)"
-            if f == 0.0:         # no unit makes gravity read 0: no measurement, not a unit to declare
-                return IMU_FILLER if w == 0.0 else ACCEL_ZERO
+            if f == 0.0:         # no unit makes gravity read 0: a dead accelerometer, not a unit to declare
+                return ACCEL_ZERO
             if not MIN_ACCEL_MPS2 <= f <= MAX_ACCEL_MPS2:
                 return (f"|f_b| {f:.4g} m/s^2 is not gravity plus vehicle accelerations (g? declare accel in a units "
                         "record; ~0 with |omega_b| ~9.8: accelerometer and gyro swapped)")
