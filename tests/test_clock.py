@@ -1172,3 +1172,62 @@ def test_a_dvl_beside_an_imu_too_gappy_for_its_clock_is_warned_about_not_kept_si
     assert out is dvl
     from graphnav.calibration.clock import CLOCK_UNCHECKED_IMU_GAPS
     assert meta["streams"]["dvl"]["doubted"][CLOCK_UNCHECKED_IMU_GAPS] == len(dvl.t)
+
+
+def test_a_dvl_broken_up_beside_an_imu_with_a_gap_is_refused_for_its_outages(sim):
+    """Runs of 5 pings 26 s apart leave no window of 6: beside an IMU with one gap (at 390 s) the search met no window
+    to cut at it and failed inside numpy ('zero-size array to reduction operation maximum'), a traceback, where the
+    IMU without the gap gets the error naming the DVL's outages. Both get that error now, and a DVL on the IMU span
+    keeps its stamps with the note, not the warning blaming the IMU's gaps."""
+    imu = _imu_without(sim.imu, 390.0, 1.0)
+    dvl = sim.dvl.take(np.flatnonzero(np.arange(len(sim.dvl.t)) % 26 < 5))
+    with pytest.raises(DataError, match="the DVL's pings are too broken up to find its clock"):
+        estimate_dvl_clock_offset(imu, dvl, sim.config)
+    meta: dict = {}
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        out, _ = align_stream_clocks(imu, dvl, None, meta, sim.config)
+    assert out is dvl and "doubted" not in meta["streams"]["dvl"]
+    assert meta["streams"]["dvl"]["notes"] == ["clock offset not estimated (too few pings or too short a log); "
+                                               "stamps kept"]
+
+
+def test_a_dvl_of_too_few_pings_is_not_blamed_on_an_imu_gap_elsewhere(sim_200):
+    """12 pings are too few to find a clock, whatever the IMU: beside an IMU with one gap at 190 s, far from them, a
+    DVL on the IMU span was warned about and counted as 'the IMU's gaps leave no window to score' (with the message
+    about its 12 pings); it keeps its stamps with the note a DVL of too few pings gets beside a gapless IMU."""
+    from graphnav.calibration.clock import CLOCK_UNCHECKED_IMU_GAPS
+    imu = _imu_without(sim_200.imu, 190.0, 1.0)
+    dvl = sim_200.dvl.take(np.arange(12))
+    meta: dict = {}
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        out, _ = align_stream_clocks(imu, dvl, None, meta, sim_200.config)
+    assert out is dvl
+    assert CLOCK_UNCHECKED_IMU_GAPS not in meta["streams"]["dvl"].get("doubted", {})
+    assert meta["streams"]["dvl"]["notes"] == ["clock offset not estimated (too few pings or too short a log); "
+                                               "stamps kept"]
+
+
+def test_an_akit_folder_beside_an_imu_too_gappy_for_its_clock_is_warned_about(sim_200, tmp_path):
+    """A published-style folder (IMU, DVL and GT files, no configuration): 0.4 s of IMU rows missing every 4 s and the
+    DVL moved 60 s. Its stamps explain 'too few to tell' at offset 0 (the gaps leave no window), so its clock was
+    not searched and the DVL loaded 60 s off without a clock warning; now the search is run and its failure for the
+    IMU's gaps is warned about and counted, as a column map's."""
+    from graphnav.calibration.clock import CLOCK_UNCHECKED_IMU_GAPS
+    from graphnav.calibration.preparation import prepare
+    from graphnav.io.export import write_akit
+    from graphnav.io.loaders import read_mission
+    paths = write_akit(sim_200, tmp_path)
+    for kind in ("config", "beams"):
+        paths[kind].unlink()
+    head = paths["IMU"].read_text().splitlines()[0]
+    rows = np.loadtxt(paths["IMU"], delimiter=",", skiprows=1)
+    t = rows[:, 0] - rows[0, 0]
+    keep = ~np.any([(t > t0) & (t < t0 + 0.4) for t0 in np.arange(1.0, 200.0, 4.0)], axis=0)
+    np.savetxt(paths["IMU"], rows[keep], delimiter=",", fmt="%.12g", header=head, comments="")
+    shift_file_stamps(paths["DVL"], 60.0)
+    with pytest.warns(RuntimeWarning, match="clock offset not estimated, stamps kept unchecked: the DVL's clock cannot "
+                                            r"be found against this IMU: the IMU's stamps have 50 gap\(s\)"):
+        m = prepare(read_mission(tmp_path / "Trajectory1"))
+    assert m.meta["streams"]["dvl"]["doubted"][CLOCK_UNCHECKED_IMU_GAPS] == len(m.dvl.t)

@@ -43,7 +43,7 @@ from scipy.stats import norm, wilcoxon
 
 from graphnav.calibration.reference import _sigma_from_curvature
 from graphnav.core.dvl_kinematics import (COARSE_MAX_WINDOWS, MAX_CLOCK_GAP_S, MAX_WINDOW_GAP_S, MIN_OVERLAP_S,
-                                          ImuIntegrals, across_outages_model, gaps_said, imu_gaps, imu_gaps_said,
+                                          ImuIntegrals, across_outages_model, gaps_said, imu_gaps_said,
                                           imu_integrals, offset_grid, outage_cut_model, search_overlap,
                                           still_velocity_said, with_enough_pings)
 from graphnav.core.errors import DataError
@@ -95,6 +95,9 @@ CLOCK_TAKEN_UNCLEAR = "DVL clock offset taken under the clear peak: its stamps a
 #: Why the pings of a DVL on the IMU span are counted whose clock could not be searched for the IMU's gaps (the windows
 #: they cut keep too few pings): its stamps are kept unchecked, a DVL 30 s late as well as one on time.
 CLOCK_UNCHECKED_IMU_GAPS = "DVL clock not checked: the IMU's gaps leave no window to score"
+#: How the clock search's error begins where the IMU's gaps, not the DVL's pings, left no two windows to score
+#: (:func:`_imu_gaps_starve`): the one error :func:`align_stream_clocks` counts as :data:`CLOCK_UNCHECKED_IMU_GAPS`.
+IMU_GAPS_STARVE = "the DVL's clock cannot be found against this IMU"
 #: Such an offset further than this from the stamps (s) is taken only where it also explains
 #: OFF_STAMPS_MIN_GAP more than the best offset within this of them, the two scored on the pings both keep on the IMU
 #: span (:func:`_nearer_the_stamps`; else the nearer is judged in its place): a DVL a few seconds off its clock is far
@@ -330,8 +333,8 @@ def estimate_dvl_clock_offset(imu, dvl, config=None, *, min_overlap_s: float = M
     h, coarse, best, second, rival = _coarse_offset(model.thinned(COARSE_MAX_WINDOWS), ints.t, t_dvl, min_overlap_s,
                                              period, "DVL", dvl.source, search_s)
     if not np.isfinite(best):
-        if len(ints.gaps):          # the IMU's gaps left the windows too few, not the DVL's pings
-            raise DataError(f"the DVL's clock cannot be found against this IMU: {imu_gaps_said(ints.gaps, window)}; "
+        if _imu_gaps_starve(model, t_dvl, min_overlap_s, period, dvl.source, search_s):
+            raise DataError(f"{IMU_GAPS_STARVE}: {imu_gaps_said(ints.gaps, window)}; "
                             f"{gaps_said(t_dvl, window, model.max_gap_s)}, and no offset keeping {min_overlap_s:.0f} "
                             "s of overlap puts two windows' parts on the IMU span: give the DVL clock's offset by "
                             "hand (dvl_time_offset_s, s added to the DVL stamps) if it is known", dvl.source,
@@ -358,6 +361,20 @@ def estimate_dvl_clock_offset(imu, dvl, config=None, *, min_overlap_s: float = M
     overlap = float(min(ints.t[-1], t_dvl[-1] + x) - max(ints.t[0], t_dvl[0] + x))
     return ClockOffset(x, _offset_sigma(model, x, use), max(explained, best), max(second, 0.0), coarse, rms, overlap,
                        pings, lead_sigmas=_lead_over(model, x, rival, h))
+
+
+def _imu_gaps_starve(model, t_dvl: np.ndarray, min_overlap_s: float, period: float, source: str,
+                     search_s: tuple[float, float] | None) -> bool:
+    """True where the IMU's gaps (``model.imu.gaps``) are why no offset of the coarse grid keeps two windows of
+    ``model``'s pings: without them one would. A DVL of too few pings, or one broken up by its own outages, beside an
+    IMU with a gap elsewhere (one at 190 s of a 200 s log) is the DVL's to blame, not the IMU's."""
+    ints = model.imu
+    if not len(ints.gaps):
+        return False
+    gapless = model.thinned(COARSE_MAX_WINDOWS)
+    gapless.imu = dataclasses.replace(ints, gaps=np.empty((0, 2)))
+    grid = offset_grid(ints.t, t_dvl, min_overlap_s, period, "DVL", source, search_s)[1]
+    return any(gapless.pings(o).any(axis=1).sum() >= 2 for o in grid)
 
 
 def _lead_over(model, x: float, rival: float, h: float) -> float:
@@ -624,7 +641,7 @@ def align_stream_clocks(imu, dvl, depth=None, meta: dict | None = None, config=N
     except DataError as err:
         if not inside:
             raise
-        if len(imu_gaps(imu.t)):     # not the DVL's doing, and a DVL far off its stamps would run there unsaid
+        if err.message.startswith(IMU_GAPS_STARVE):     # not the DVL's doing: one far off its stamps would run unsaid
             say_doubted(meta, "dvl", dvl.source, f"clock offset not estimated, stamps kept unchecked: {err.message}",
                         CLOCK_UNCHECKED_IMU_GAPS, len(dvl.t), stacklevel=2)
         else:

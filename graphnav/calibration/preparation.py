@@ -743,12 +743,13 @@ def _clock_beyond_the_fine_search(imu: ImuData, dvl: DvlData, cfg: SensorConfig,
     refused as a DVL in another frame (with GT) or loaded 60 s off (without). The published files' DVL, about 1 s
     early, explains -1.3 (Trajectory11) to 0.79 as stamped: the search finds it within the fine search's reach, which
     is left to take it, so they load as before. The search runs once, as a trial (:func:`_tried`), whose notes and
-    warnings are the mission's only where its offset is taken. Where it finds no clear offset (a DVL too noisy for
+    warnings are the mission's only where its offset is taken, or where the IMU's gaps left it no window to score
+    (:data:`~graphnav.calibration.clock.CLOCK_UNCHECKED_IMU_GAPS`). Where it finds no clear offset (a DVL too noisy for
     its clock: Trajectory13 60 s late with 0.25 m/s of noise loaded 60 s off without a word), the stamps kept are
     warned about and their pings counted (:data:`CLOCK_NOT_FOUND`), unless the DVL velocity barely changes (a straight
     steady leg: a note says its clock was not checked). ``ints``: the IMU's integrals the search's model is built on
     (:class:`graphnav.calibration.clock.ImuSide`)."""
-    from graphnav.calibration.clock import MIN_PEAK
+    from graphnav.calibration.clock import CLOCK_UNCHECKED_IMU_GAPS, MIN_PEAK
     from graphnav.calibration.reference import DVL_OFFSET_SEARCH_S
     poorly = _stamps_explained_poorly(imu, dvl, cfg, ints)
     if poorly is None:
@@ -762,7 +763,10 @@ def _clock_beyond_the_fine_search(imu: ImuData, dvl: DvlData, cfg: SensorConfig,
         from graphnav.calibration.dvl_scale import AKIT_DVL_FIXES
         _y_finds_the_clock(None, search, imu, dvl, cfg, trial.meta, AKIT_DVL_FIXES, keeps_s=DVL_OFFSET_SEARCH_S)
     taken = est is not None and est["confident"] and abs(est["offset_s"]) > DVL_OFFSET_SEARCH_S
-    if taken:
+    # a search the IMU's gaps left without windows: its warning and count kept, as a column map's (the stamps,
+    # maybe a minute off, were dropped unsaid)
+    unchecked = CLOCK_UNCHECKED_IMU_GAPS in trial.meta.get("streams", {}).get("dvl", {}).get("doubted", {})
+    if taken or unchecked:
         trial.keep(meta)
     still = est is not None and still_velocity_said(est["peak"], est["rms"])
     if still:
@@ -782,14 +786,16 @@ def _stamps_explained_poorly(imu: ImuData, dvl: DvlData, config: SensorConfig,
     """``(model, here)`` where the IMU explains the DVL's velocity changes poorly at its stamps as read (``here``, under
     the clock search's ``MIN_PEAK``: a DVL that may be off its clock), ``model`` the clock search's window model
     (:func:`graphnav.calibration.clock.clock_model`) it was scored on, for the search to score as well; None where
-    the stamps explain more, or the pings are too few to tell. ``ints``: the IMU's integrals, when built already."""
+    the stamps explain more, or the pings are too few to tell (unless the IMU's gaps left them too few: ``here`` NaN
+    then). ``ints``: the IMU's integrals, when built already."""
     from graphnav.calibration.clock import MIN_PEAK, clock_model, explained_as_stamped
     try:
         model = clock_model(imu, dvl, config, ints=ints)
     except DataError:
         return None
     here = explained_as_stamped(imu, dvl, config, model=model)
-    return (model, here) if here < MIN_PEAK else None
+    # the IMU's gaps leaving no two windows at the stamps is no sign they are right: the search says what they leave
+    return (model, here) if here < MIN_PEAK or (np.isnan(here) and len(model.imu.gaps)) else None
 
 
 def _akit_imu_frame(cfg: SensorConfig) -> dict:

@@ -355,7 +355,7 @@ class _WindowModel:
         it is at the IMU's ends: the pings stamped inside a gap are left out, and those on either side of it keep
         their own fit (:meth:`segments`) where they are at least :data:`MIN_WINDOW_PINGS`; any other window spanning
         a gap, or with one between its pings, is left out whole (the DVL checks fit whole windows)."""
-        if not len(self.imu.gaps):
+        if not (len(self.imu.gaps) and use.size):       # no gap, or a DVL broken up into no window at all
             return use
         t = self.t + offset
         if not self.trim:
@@ -375,7 +375,7 @@ class _WindowModel:
         gaps at ``offset`` s (:meth:`at_imu_gaps`): each is fitted on its own, with its own ``v0`` and ``g0`` and its
         own straight line, as the windows :func:`window_rows` cuts at a DVL outage are. None where no window has
         pings on two sides of a gap."""
-        if not (self.trim and len(self.imu.gaps)):
+        if not (self.trim and len(self.imu.gaps) and use.size):
             return None
         side = np.searchsorted(self.imu.gaps[:, 1], self.t + offset, side="right")
         part = np.where(use, side - np.min(np.where(use, side, side.max()), axis=1, keepdims=True), 0)
