@@ -1046,11 +1046,18 @@ def spread_shared_times(t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     time and ``tick`` the clock's: the median step between its distinct times, at most the second a clock of whole
     seconds vouches for (pings in bursts would otherwise be spread over the pause between bursts), RDI's 0.01 s when it
     gives one time only. A gap after them is not spread over. Pings of a clock that stood still
-    (:func:`stalled_clock`) are put ``min((T' - T) / k, period)`` apart instead: they were taken at the ping period up
+    (:func:`_stalled_groups`) are put ``min((T' - T) / k, period)`` apart instead: they were taken at the ping period up
     to the time the clock jumped to."""
+    spread, moved, _ = _spread(t)
+    return spread, moved
+
+
+def _spread(t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`spread_shared_times`' stamps and pings moved, and (M,) bool the pings moved because the clock stood
+    still (:func:`_stalled_groups`), of stamps ``t`` (s, in time order)."""
     t = np.asarray(t, float)
     if len(t) < 2 or np.all(np.diff(t) > 0):
-        return t, np.zeros(len(t), bool)
+        return t, np.zeros(len(t), bool), np.zeros(len(t), bool)
     starts, sizes, room = _time_groups(t)
     tick = float(np.median(room[:-1])) if len(starts) > 1 else 0.01
     if np.all(t[starts] == np.round(t[starts])):
@@ -1059,7 +1066,7 @@ def spread_shared_times(t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     stalled, period = _stalled_groups(t, starts, sizes, room)
     step[stalled] = np.minimum(room[stalled] / sizes[stalled], period)
     rank = np.arange(len(t)) - np.repeat(starts, sizes)
-    return t + rank * np.repeat(step, sizes), rank > 0
+    return t + rank * np.repeat(step, sizes), rank > 0, np.repeat(stalled, sizes) & (rank > 0)
 
 
 def _time_groups(t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -1091,18 +1098,6 @@ def _stalled_groups(t: np.ndarray, starts: np.ndarray, sizes: np.ndarray, room: 
     return (sizes - 1 - STALL_MARGIN_PERIODS) * period > resolution, period
 
 
-def stalled_clock(t: np.ndarray) -> np.ndarray:
-    """(M,) bool: the pings after the first of a run that shares one time because the clock stood still
-    (:func:`_stalled_groups`), of stamps ``t`` (s, in time order)."""
-    t = np.asarray(t, float)
-    if len(t) < 2:
-        return np.zeros(len(t), bool)
-    starts, sizes, room = _time_groups(t)
-    stalled, _ = _stalled_groups(t, starts, sizes, room)
-    rank = np.arange(len(t)) - np.repeat(starts, sizes)
-    return np.repeat(stalled, sizes) & (rank > 0)
-
-
 #: More pings than a DVL takes within one tick of its clock (1 s at most; DVLs ping at up to about 10 Hz): when
 #: every ping of a log carries one time, its clock did not run.
 FROZEN_CLOCK_PINGS = 20
@@ -1124,8 +1119,7 @@ def with_spread_times(log: DvlLog) -> tuple[DvlLog, list[tuple[str, str, int]]]:
         raise DataError(f"all {len(log.t)} pings carry one time ({_utc(log.t[0])}): the DVL's clock did not run (not "
                         "set, or stopped), so when each ping was taken cannot be told; give each ping its time (a CSV "
                         "of DVL velocities: t, vx, vy, vz)", log.source, field="time")
-    t, moved = spread_shared_times(log.t)
-    stalled = stalled_clock(log.t) & moved
+    t, moved, stalled = _spread(log.t)
     where = log.where or [f"ping {k}" for k in range(len(t))]
     notes = [(_stall_note(log.t, t, stalled, where), STALLED_TIME, int(stalled.sum()))] if stalled.any() else []
     if (moved & ~stalled).any():
@@ -1144,7 +1138,7 @@ def _spread_note(t: np.ndarray, spread: np.ndarray, moved: np.ndarray, where: li
 
 
 def _stall_note(t: np.ndarray, spread: np.ndarray, stalled: np.ndarray, where: list[str]) -> str:
-    """The note on the pings of a clock that stood still (:func:`stalled_clock`), spread up to its jump."""
+    """The note on the pings of a clock that stood still (:func:`_stalled_groups`), spread up to its jump."""
     first = int(np.flatnonzero(stalled)[0])
     head = int(np.flatnonzero(t == t[first])[0])
     run = int(np.sum(t == t[first]))
