@@ -81,8 +81,8 @@ def latency_drop(latency: np.ndarray, k: int, step: float) -> bool:
     latency dropping (a backlog flushed) rather than the header clock stepping: a latency (within
     :data:`CLOCK_OFFSET_NOTE_S`) on both sides, of one sign, nearer 0 after."""
     before = _latency_before(latency, k)
-    after = before + step
-    return abs(before) <= CLOCK_OFFSET_NOTE_S and abs(after) < abs(before) and before * after >= 0
+    return (abs(before) <= CLOCK_OFFSET_NOTE_S and nearer_the_receive_clock(latency, k, step)
+            and before * (before + step) >= 0)
 
 
 def on_the_grid(t_ns: np.ndarray, k: int, period_s: float) -> bool | None:
