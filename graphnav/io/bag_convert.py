@@ -20,9 +20,9 @@ from graphnav.core.errors import ConfigError, DataError
 from graphnav.core.mission import (MAX_DVL_SPEED_MPS, MAX_FIX_SIGMA_M, DepthData, DvlData, GroundTruth, HeadingData,
                                    ImuData, PositionFixData, no_beams)
 from graphnav.core.rotations import C_NED_ENU
-from graphnav.core.screening import (EXACT_COPY, MAX_STAMP_GAP_S, NUDGED_COPY, exact_copies, imu_unmeasured, located,
-                                     nudged_copies, refuse_rows, say_exact_copies, say_imu_stamp_steps,
-                                     say_nudged_copies)
+from graphnav.core.screening import (EXACT_COPY, IMU_FILLER, MAX_STAMP_GAP_S, NUDGED_COPY, exact_copies, imu_unmeasured,
+                                     located, nudged_copies, refuse_rows, say_exact_copies, say_imu_stamp_steps,
+                                     say_nudged_copies, zeroed_filler)
 from graphnav.core.streams import add_note, count_refused, say_doubted
 from graphnav.io import bag_fields
 from graphnav.io.bag_stamps import (HEADER_CLOCK_SET_RIGHT, HEADER_CLOCK_STEP, HEADER_STEP_SPREADS, HEADER_STEP_WINDOW,
@@ -180,17 +180,23 @@ def decoded_stream(topic: str, msgtype: str, header_ns: np.ndarray | None, recei
     moment later (:func:`~graphnav.core.screening.nudged_copies`). Each is counted in the stream's log and kept in
     ``Stream.twice`` for the warning when the topic is used (:func:`warn_written_twice`). ``clock_s``: the IMU's
     header minus receive time, s (a header clock set right is judged against it)."""
-    from graphnav.io.bag_stamps import choose_stamps
+    from graphnav.io.bag_stamps import why_not_header, choose_stamps
     sub: dict = {}
     twice: dict = {}
     values = message_values(rows)
     index = np.arange(len(rows))
+    zeroed = _zeroed_filler(stream, header_ns, rows, label)
+    if zeroed.any() and why_not_header(header_ns[~zeroed]) is None:
+        count_refused(sub, stream, IMU_FILLER, int(zeroed.sum()))
+        twice[IMU_FILLER] = (np.flatnonzero(zeroed), receive_ns[zeroed], 0.0)
+        index = np.flatnonzero(~zeroed)
+        header_ns, receive_ns, values = header_ns[index], receive_ns[index], values[index]
     if header_ns is not None and len(rows) > 2 and np.all(header_ns != 0):
         t = (header_ns - header_ns[0]) / 1e9
         copies, repeat = exact_copies(t, np.column_stack([t, values]))
         if copies.size and not (stream == "imu" and repeat):
             count_refused(sub, stream, EXACT_COPY, int(copies.size))
-            twice[EXACT_COPY] = (copies, header_ns[copies], 0.0)
+            twice[EXACT_COPY] = (index[copies], header_ns[copies], 0.0)
             index = np.delete(index, copies)
             header_ns, receive_ns, values = header_ns[index], receive_ns[index], values[index]
     t_ns, keep, how = choose_stamps(header_ns, receive_ns, sub, stream, label, clock_s)
@@ -207,13 +213,32 @@ def decoded_stream(topic: str, msgtype: str, header_ns: np.ndarray | None, recei
                   index, twice)
 
 
+def _zeroed_filler(stream: str, header_ns: np.ndarray | None, rows: list, label: str) -> np.ndarray:
+    """(N,) bool: the IMU messages (``stream`` "imu") of a logger's filler whose header stamp is zeroed too
+    (:func:`graphnav.core.screening.zeroed_filler`): no time, so out before the stamps are chosen, as a column map's
+    rows are (21 of them put the whole topic on its receive time, 'header stamp(s) are zero'), when the other
+    messages' header stamps are sane. A topic whose every stamp is zero has no header clock, and one whose other stamps
+    are not sane (a stall, a step back) is on its receive time anyway: there the filler's stamps are there, and it is
+    refused with the other messages holding no measurement. A topic of filler only is a DataError naming ``label``."""
+    if (stream != "imu" or header_ns is None or not np.any(header_ns != 0)
+            or not hasattr(rows[0], "linear_acceleration")):
+        return np.zeros(len(rows), bool)
+    six = np.array([[*vec(m.linear_acceleration), *vec(m.angular_velocity)] for m in rows])
+    return zeroed_filler(header_ns, six, label)
+
+
 def warn_written_twice(s: Stream, t0_ns: int, source: str) -> None:
     """The warnings of the messages :func:`decoded_stream` dropped as published twice, each named by its index in
-    the topic and its time on the mission's clock."""
+    the topic and its time on the mission's clock, and of an IMU's filler with its stamp zeroed (named by its receive
+    time)."""
     for reason, (index, t_ns, moved) in s.twice.items():
         where = _named(index, t_ns, t0_ns)
         at = np.arange(index.size)
-        if reason == EXACT_COPY:
+        if reason == IMU_FILLER:
+            warnings.warn(f"{source}:{s.topic}: {index.size} imu sample(s) refused ({index.size} {IMU_FILLER}, its "
+                          f"header stamp zeroed too, received at {located(at, where=where)}); they are not used",
+                          RuntimeWarning, stacklevel=2)
+        elif reason == EXACT_COPY:
             say_exact_copies(at, f"{source}:{s.topic}", where=where, stacklevel=3)
         else:
             say_nudged_copies(at, moved, f"{source}:{s.topic}", where=where, stacklevel=3)
@@ -397,8 +422,9 @@ def imu(s: Stream, t0_ns: int, source: str, meta: dict) -> ImuData:
     any IMU gap) is refused, warned about (its index in the topic and its time) and counted in ``meta`` under the
     reasons a column map's row gets (``meta["imu_unmeasured_screened"]``: not judged again); more than half refused
     is a DataError (:func:`graphnav.core.screening.check_refused_fraction`), and so is such a run leaving a gap longer
-    than can be bridged (naming the message after it). A step of the IMU clock or a gap in every message's stamps is
-    warned about and counted as a file's is (:func:`graphnav.core.screening.say_imu_stamp_steps`)."""
+    than can be bridged (naming the message after it, and the run as the topic's messages). A step of the IMU clock
+    or a gap in every message's stamps is warned about and counted as a file's is
+    (:func:`graphnav.core.screening.say_imu_stamp_steps`)."""
     f = np.array([vec(m.linear_acceleration) for m in s.rows])
     w = np.array([vec(m.angular_velocity) for m in s.rows])
     t = _rel(s, t0_ns)
@@ -407,8 +433,8 @@ def imu(s: Stream, t0_ns: int, source: str, meta: dict) -> ImuData:
     # on every message's stamp, as a column map's rows before any is refused: the stamps of messages holding no
     # measurement are the IMU's clock still ticking, no samples lost (their gap is the run's to bridge)
     say_imu_stamp_steps(t, t, topic, STAMP_FIELDS[s.stamp_kind], meta, where=where)
-    t, f, w = refuse_rows(meta, "imu", imu_unmeasured(t, f, w, IMU_MESSAGE_FIELDS, topic, where=where), topic, None,
-                          t, f, w, where=where)
+    unmeasured = imu_unmeasured(t, f, w, IMU_MESSAGE_FIELDS, topic, where=where, row=f"message(s) of {s.topic}")
+    t, f, w = refuse_rows(meta, "imu", unmeasured, topic, None, t, f, w, where=where, fields=IMU_MESSAGE_FIELDS)
     meta["imu_unmeasured_screened"] = True
     if not frame_is(s.rows[0].header.frame_id, "_frd"):
         f, w = f @ FLU_FRD, w @ FLU_FRD

@@ -180,7 +180,7 @@ def _say_steps_back(steps: list[dict], meta: dict, stream: str, label: str) -> N
         say_doubted(meta, stream, label, text, reason, s["n"], stacklevel=3)
 
 
-def _why_not_header(header_ns: np.ndarray) -> str | None:
+def why_not_header(header_ns: np.ndarray) -> str | None:
     """Why a stream's header stamps cannot be used (None when they can)."""
     if np.all(header_ns == 0):
         return "all header stamps are zero"
@@ -250,7 +250,7 @@ def choose_stamps(header_ns: np.ndarray | None, receive_ns: np.ndarray, meta: di
         why = "the message type has no header"
     else:
         header_ns = np.asarray(header_ns, np.int64)
-        why = _why_not_header(header_ns)
+        why = why_not_header(header_ns)
         if why is None:
             return header_ns, np.arange(len(header_ns)), "header"
         stalled = stall_restamped(header_ns, receive_ns, stream)
