@@ -184,15 +184,23 @@ def stamp_problem(t, previous: float | None = None) -> str | None:
     if abs(t) > MAX_STAMP_S:
         return (f"stamp {t:.6g} s is beyond {MAX_STAMP_S:g} s (micro/nanoseconds read as seconds, or a "
                 "corrupted stamp)")
-    return None if previous is None else stamp_jumps_ahead(t, previous)
+    return None if previous is None else stamp_jumps(t, previous)
 
 
-def stamp_jumps_ahead(t: float, previous: float) -> str | None:
-    """Why the stamp t (s, a number within :data:`MAX_STAMP_S`) jumps too far ahead of ``previous`` (the newest stamp
-    of its stream, s): more than :data:`MAX_STAMP_GAP_S` (years: a clock reset or a corrupted stamp), or None."""
-    if math.isfinite(previous) and t - previous > MAX_STAMP_GAP_S:
-        return f"stamp jumps {t - previous:.6g} s ahead of the stream (more than {MAX_STAMP_GAP_S:g} s)"
+def stamp_jumps(t: float, previous: float) -> str | None:
+    """Why the stamp t (s, a number within :data:`MAX_STAMP_S`) is too far from ``previous`` (the newest stamp of its
+    stream, s), ahead of it or behind it: more than :data:`MAX_STAMP_GAP_S` (days to years: a clock reset or a
+    corrupted stamp; a stamp days in the past is as far off its stream's clock as one days ahead), or None."""
+    if math.isfinite(previous) and abs(t - previous) > MAX_STAMP_GAP_S:
+        return (f"stamp jumps {abs(t - previous):.6g} s {'ahead of' if t > previous else 'behind'} the stream (more "
+                f"than {MAX_STAMP_GAP_S:g} s)")
     return None
+
+
+def clock_jump_words(before: float, after: float) -> str:
+    """How far and which way a clock jumped from the stamp ``before`` to ``after`` (s): e.g. "172800 s ahead",
+    "1.7e+09 s back"."""
+    return f"{abs(after - before):.6g} s {'ahead' if after > before else 'back'}"
 
 
 def check_stamps(t: np.ndarray, source: str, field: str = "t") -> None:
@@ -2030,7 +2038,8 @@ class StreamScreen:
                           if self.judge_zeros else {})
         self._newest = -math.inf      # newest stamp accepted on any stream (one clock)
         self.oldest = math.inf        #: oldest stamp accepted on any stream, s
-        #: the first stamp that jumped more than MAX_STAMP_GAP_S ahead: (stream, newest stamp before it, its stamp), s
+        #: the first stamp more than MAX_STAMP_GAP_S ahead of the newest or behind it: (stream, newest stamp before it,
+        #: its stamp), s
         self.clock_jump: tuple[str, float, float] | None = None
         #: samples per stream refused for such a jump
         self.jumped: dict[str, int] = {}
@@ -2041,13 +2050,14 @@ class StreamScreen:
 
     def stamp_problem(self, stream: str, t: float) -> str | None:
         """Why a stamp of ``stream`` is refused: beyond the bounds, or a jump of more than
-        :data:`MAX_STAMP_GAP_S` ahead of the newest stamp of the streams (they share one clock: the first such
-        jump is kept in :attr:`clock_jump`, the samples refused for one counted in :attr:`jumped`)."""
+        :data:`MAX_STAMP_GAP_S` ahead of the newest stamp of the streams or behind it (:func:`stamp_jumps`; they share
+        one clock: the first such jump is kept in :attr:`clock_jump`, the samples refused for one counted in
+        :attr:`jumped`; a first record days ahead of the stream after it shows as the stream jumping back)."""
         why = stamp_problem(t)
         if why is not None:
             return why
         t = float(t)
-        why = stamp_jumps_ahead(t, self._newest)
+        why = stamp_jumps(t, self._newest)
         if why is not None:
             if not self._jump_open:
                 self.clock_jump, self._jump_open, self._imu_jump_run = (stream, self._newest, t), True, 0
@@ -2074,11 +2084,12 @@ class StreamScreen:
         if refused_stream != "imu" and not self.jumped.get("imu"):
             n = self.jumped.get(refused_stream, 0)
             return (f"{n} of {received.get(refused_stream, n)} {refused_stream} samples are stamped more than "
-                    f"{MAX_STAMP_GAP_S:g} s ahead of the IMU's (by {after - before:.6g} s at t = {before:.3f} s) "
+                    f"{MAX_STAMP_GAP_S:g} s {'ahead of' if after > before else 'behind'} the IMU's (by "
+                    f"{abs(after - before):.6g} s at t = {before:.3f} s) "
                     f"while the IMU went on: the {refused_stream} stamps are not on the clock the other streams "
                     "share; correct its stamps (their offset) or its clock")
         refused = ", ".join(f"{n} of {received.get(s, n)} {s}" for s, n in self.jumped.items())
-        return (f"the clock jumped {after - before:.6g} s ahead at t = {before:.3f} s, "
+        return (f"the clock jumped {clock_jump_words(before, after)} at t = {before:.3f} s, "
                 f"first on the {stream} stream (its sample stamped {after:.6g} s): more than {MAX_STAMP_GAP_S:g} s, "
                 f"no stream pauses so long; {refused} samples refused after it (every stream shares the clock); "
                 "split the stream there or correct its stamps")
