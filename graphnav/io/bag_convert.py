@@ -258,7 +258,10 @@ def header_clock_steps_removed(s: Stream, source: str, meta: dict, steps: list |
     (:func:`graphnav.io.bag_stamps.latency_drop`) is told by the sample grid: stamps staying on it across the gap are
     messages lost (left, warned), stamps leaving it a clock step (moved); stamps too uneven to tell are moved, the
     warning saying it could not be told. Each step moved back is appended to ``steps`` (when given) as (the receive
-    time of its first message, ns; the stamps' shift, ns) for :func:`shared_clock_step_removed`."""
+    time of its first message, ns; the stamps' shift, ns) for :func:`shared_clock_step_removed`. Before them, a topic
+    other than the IMU's has its steps back under a period (its stamps still increasing, so not repaired as they
+    were chosen) taken out by :func:`graphnav.io.bag_stamps.steps_back_repaired`; either way the stamps are moved by
+    :func:`graphnav.io.bag_stamps.clock_step_moved` and a clock set right is said in one wording."""
     from graphnav.core.imu_timing import GAP_WARN_SAMPLES, imu_step_stats
     if s.stamp_kind != "header" or s.receive_ns is None or len(s.t_ns) < 3:
         return s
@@ -321,10 +324,11 @@ def header_clock_steps_removed(s: Stream, source: str, meta: dict, steps: list |
 
 def header_clock_drift_removed(s: Stream, source: str, meta: dict, kind: str, clock_rate: float = 0.0) -> Stream:
     """``s`` (a topic other than the IMU's, on its header stamps, its steps taken out) with its header clock's drift
-    against the IMU's taken out: header minus receive time running on a line (:func:`~graphnav.io.bag_stamps.latency_rate`)
-    that leaves the IMU's (``clock_rate``: the IMU's, s per s; a recorder's clock drifting drifts every topic alike)
-    by more than :data:`~graphnav.io.bag_stamps.CLOCK_DRIFT_NOTE_S` over the topic is a clock running fast or slow (a
-    DVL's own oscillator 1 % slow ends 1.5 s behind after 150 s). Warned naming the topic and the field, every message
+    against the IMU's taken out: header minus receive time running on a line
+    (:func:`~graphnav.io.bag_stamps.latency_rate`) that leaves the IMU's (``clock_rate``: the IMU's, s per s; a
+    recorder's clock drifting drifts every topic alike) by more than
+    :data:`~graphnav.io.bag_stamps.CLOCK_DRIFT_NOTE_S` over the topic is a clock running fast or slow (a DVL's own
+    oscillator 1 % slow ends 1.5 s behind after 150 s). Warned naming the topic and the field, every message
     counted as doubted on ``kind``; the stamps are moved onto the IMU's rate from the first message on when the drift
     is over :data:`HEADER_STEP_SPREADS` of the latency's spread about its line, else kept (the warning says so)."""
     if s.stamp_kind != "header" or s.receive_ns is None:

@@ -139,8 +139,9 @@ def clock_step_moved(t_ns: np.ndarray, latency: np.ndarray, j: int, step: float,
     header minus receive time ``clock_s``, s) the stamps before it onto the clock after, else those from it on onto
     the clock before. Either move stops at the jump back by as much that bounds the stretch (``lo`` or ``hi``: a
     glitch of the clock, only its stamps are moved). Returns ``jump_s`` (the header step), ``periods``, ``shift_s``
-    (the moved stamps' shift; ``shift_ns`` in ns), ``before`` (True: those before moved), ``first``/``end`` (the moved stamps), ``whole``
-    (up to the topic's first or last message) and ``latency_s`` (header minus receive time before and after)."""
+    (the moved stamps' shift; ``shift_ns`` in ns), ``before`` (True: those before moved), ``first``/``end`` (the
+    moved stamps), ``whole`` (up to the topic's first or last message) and ``latency_s`` (header minus receive time
+    before and after)."""
     jump = (int(t_ns[j]) - int(t_ns[j - 1])) / 1e9
     periods = max(1, round((jump - step) / period_s))
     shift_ns = int(round((jump - periods * period_s) * 1e9))
