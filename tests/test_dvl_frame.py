@@ -2152,7 +2152,7 @@ def test_flu_axes_beside_an_imu_losing_0_4_s_every_7_s_are_refused_as_without_th
     at the gaps as the clock search's are, and it is refused as the gapless log is (4.1x better negated; 9.8x)."""
     m, t, v_b = sim
     with pytest.raises(DataError, match=r"fits the IMU's accelerations \d+\.\d+x better with its y and z negated .*"
-                                        r"FLU axes \(ROS base_link\) read as FRD\? declare csv_columns.dvl.frame 'flu'"):
+                                        r"FLU axes \(ROS base_link\) read as FRD\? declare csv_columns\.dvl\.frame"):
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             _load(_folder(tmp_path, _imu_losing(sim, 7.0, 0.4), v_b * [1, -1, -1]))
