@@ -573,3 +573,41 @@ def test_bytes_before_a_cut_last_ensemble_at_the_end_and_a_header_written_again_
         assert [s for s in said if f"{n} byte(s)" in s]
         np.testing.assert_array_equal(log.t, clean.t)
         np.testing.assert_array_equal(log.v_d, clean.v_d)
+
+
+def test_a_clock_of_whole_seconds_that_stops_dead_reckons_at_the_ping_period_not_its_median_step(pd0_dir, tmp_path):
+    """winriver01.PD0 (pings 1.31 s apart) on a clock of whole seconds (steps of 1 s and 2 s, median 1 s) whose last
+    30 pings share one time: they are dead-reckoned at the period its steps give (1.306 s), within the clock's
+    second of their times. They were dead-reckoned at its median step, 1.000 s: the last ping 9.2 s early."""
+    src = pd0_dir / "winriver01.PD0"
+    true = _clock(src)
+    recorded = np.floor(true)
+    recorded[-30:] = recorded[-30]
+    path = tmp_path / src.name
+    path.write_bytes(b"".join(_retimed(src, recorded)))
+    dvl, meta, said = _read_for_a_mission(path)
+    np.testing.assert_allclose(dvl.t, true[:len(dvl.t)], rtol=0, atol=1.0)
+    assert meta["streams"]["dvl"]["doubted"] == {pd0.STALLED_TIME: 28}
+    assert [s for s in said if "dead-reckoned at the ping period (1.306 s, its steps)" in s]
+
+
+@pytest.mark.parametrize("stall", ["through a whole burst", "across two pauses", "at the end of the file"])
+def test_a_dvl_clock_stalled_across_several_pauses_or_to_the_end_puts_each_burst_after_its_pause(pd0_dir, tmp_path,
+                                                                                                   stall):
+    """winriver01.PD0 retimed to bursts of 10 pings 1.3 s apart every 30 s, its clock standing still from the 9th
+    ping of the 6th burst through the whole 7th (12 pings), from the 6th of the 6th burst to the last of the 8th (25
+    pings), or from the 7th of the last burst but one to the end of the file: every ping lands on its time (0.05 s),
+    each burst after its pause. The bursts before the last pause were put without their pause, 17 s early (34 s with
+    two), and the burst after a stall to the end of the file 17 s early."""
+    src = pd0_dir / "winriver01.PD0"
+    k = np.arange(len(_clock(src)))
+    true = _clock(src)[0] + 30.0 * (k // 10) + 1.3 * (k % 10)
+    first, end = {"through a whole burst": (58, 70), "across two pauses": (55, 80),
+                  "at the end of the file": (len(k) - 5, len(k))}[stall]
+    recorded = true.copy()
+    recorded[first:end] = true[first]
+    path = tmp_path / src.name
+    path.write_bytes(b"".join(_retimed(src, recorded)))
+    dvl, meta, said = _read_for_a_mission(path)
+    np.testing.assert_allclose(dvl.t, true[:len(dvl.t)], rtol=0, atol=0.05)
+    assert [s for s in said if "of them after the pause between bursts it stood still across" in s]

@@ -1202,14 +1202,16 @@ def _after_pauses(t: np.ndarray, spread: np.ndarray, groups: tuple, stalled: np.
     starts, sizes, room = groups
     if not stalled.any() or not np.isfinite(period):
         return spread
-    pauses = starts[~stalled & (sizes == 1) & np.isfinite(room) & (room > PAUSE_PERIODS * period)]
+    paused = ~stalled & (sizes == 1) & np.isfinite(room) & (room > PAUSE_PERIODS * period)
+    pauses = starts[paused]
     if len(pauses) < 2:
         return spread
     burst = int(np.min(np.diff(pauses)))
     if burst < 2 or np.any(np.diff(pauses) % burst):
         return spread
+    pause_s = float(np.median(room[paused]))       # from a burst's last ping to the next one's first
     spread = spread.copy()
-    for g in np.flatnonzero(stalled & np.isfinite(room) & (room > (sizes + PAUSE_PERIODS) * period)):
+    for g in np.flatnonzero(stalled & (room > (sizes + PAUSE_PERIODS) * period)):
         first, end = starts[g], starts[g] + sizes[g]
         before = pauses[pauses < first]
         if not len(before):
@@ -1217,7 +1219,13 @@ def _after_pauses(t: np.ndarray, spread: np.ndarray, groups: tuple, stalled: np.
         pause = before[-1] + burst * int(np.ceil((first - before[-1]) / burst))      # the last ping of its burst
         if pause < end - 1:
             after = np.arange(pause + 1, end)
-            spread[after] = t[first] + room[g] - (end - after) * period
+            ends = np.arange(pause, end, burst)          # the last pings of the bursts it stood across
+            if np.isfinite(room[g]):                     # back from the jump over the pauses still ahead of each
+                ahead = np.sum(ends[None, :] >= after[:, None], axis=1)
+                spread[after] = t[first] + room[g] - (end - after) * period - ahead * (pause_s - period)
+            else:                                        # never ran on: on from its time over the pauses behind each
+                behind = np.sum(ends[None, :] < after[:, None], axis=1)
+                spread[after] = t[first] + (after - first) * period + behind * (pause_s - period)
     return spread
 
 
@@ -1273,7 +1281,10 @@ def _stalled_groups(sizes: np.ndarray, room: np.ndarray, resolution: float) -> t
     the pings (most runs shared), whose shared times are its ticks."""
     stalled, period = np.zeros(len(sizes), bool), float("nan")
     if _own_times(sizes):
-        period = float(np.median(room[:-1][(sizes == 1)[:-1]]))
+        steps = room[:-1][(sizes == 1)[:-1]]
+        period = float(np.median(steps))
+        if resolution >= WHOLE_SECOND_TICK_S:       # its steps are the period rounded to its tick: their mean is it
+            period = float(np.mean(steps[steps <= period + resolution]))         # (gaps left out)
         stalled = (sizes - 1 - STALL_MARGIN_PERIODS) * period > resolution
     frozen = sizes > FROZEN_CLOCK_PINGS
     if not frozen.any() or np.isfinite(period):
@@ -1331,8 +1342,8 @@ def _stall_note(t: np.ndarray, spread: np.ndarray, stalled: np.ndarray, where: l
     own = _own_times(sizes)
     rank = np.arange(len(t)) - np.repeat(starts, sizes)
     paused = int(np.sum(stalled & (spread - t > rank * period + 1e-6)))
-    tail = (f"; {paused} of them after the pause between bursts it stood still across, at the ping period back from "
-            "the time it jumped to") if paused else ""
+    tail = (f"; {paused} of them after the pause between bursts it stood still across, put after each pause it stood "
+            "across (as long as the clock's other pauses) at the ping period") if paused else ""
     if stalled[-1]:
         tail += (f"; after its last time ({_utc(t[-1])}) it never ran on: those {int(np.sum(t == t[-1]))} pings are "
                 f"dead-reckoned at the ping period ({period:.3f} s, "
