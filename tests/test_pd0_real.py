@@ -611,3 +611,27 @@ def test_a_dvl_clock_stalled_across_several_pauses_or_to_the_end_puts_each_burst
     dvl, meta, said = _read_for_a_mission(path)
     np.testing.assert_allclose(dvl.t, true[:len(dvl.t)], rtol=0, atol=0.05)
     assert [s for s in said if "of them after the pause between bursts it stood still across" in s]
+
+
+def test_a_second_recording_in_another_frame_joined_without_a_cut_is_refused_naming_the_byte(pd0_dir, tmp_path):
+    """winriver01.PD0 (ship frame) with itself joined behind 3 days later set up in the earth frame (the EX bits of
+    its fixed leaders): refused naming the two ensembles, the frames and the byte to cut at. It was read as one log
+    in the earth frame, the first recording's ship-frame velocities turned as earth ones, warned only as a join."""
+    src = pd0_dir / "winriver01.PD0"
+    raw = src.read_bytes()
+    parts = _retimed(src, _clock(src) + 3 * 86400.0)
+    for ens in parts:
+        offsets = struct.unpack_from(f"<{ens[5]}H", ens, 6)
+        fixed = next(o for o in offsets if ens[o:o + 2] == b"\x00\x00")
+        ens[fixed + 25] |= 0x18                                           # EX bits 3-4: earth
+        struct.pack_into("<H", ens, len(ens) - 2, sum(ens[:-2]) & 0xFFFF)
+    path = tmp_path / src.name
+    path.write_bytes(raw + b"".join(parts))
+    last = pd0.scan_pd0(src).spans[-1][0]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        with pytest.raises(DataError, match=re.escape(
+                f"changes from ship in ensemble 485 (byte {last}) to earth in ensemble 224 (byte {len(raw)}): "
+                f"recordings set up differently joined in one file") + ".*" + re.escape(
+                f"load each from a file of its own (the bytes before {len(raw)} and from {len(raw)} on)")):
+            read_dvl(path)

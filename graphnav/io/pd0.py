@@ -911,6 +911,9 @@ def _dataset(path: Path, scan: Pd0Scan):
         if change:          # two instruments' recordings joined: why their clocks and numbers disagree
             raise DataError(f"{change}; {one_instrument}", source)
         raise DataError(f"the ensembles cannot be put in time order: {scan.unplaced}", source, field="time")
+    frame = "" if change else _frame_change(path.read_bytes(), scan)
+    if frame:
+        raise DataError(frame, source)
     if scan.moved:
         warnings.warn(f"{source}: {scan.moved} ensemble(s) stored out of time order ({scan.order_note}) sorted by "
                       "their own clock (the variable leader's), with which their ensemble numbers agree",
@@ -953,15 +956,40 @@ def _instrument_change(raw: bytes, scan: Pd0Scan) -> str:
     """Where the instrument (firmware, beams, serial: :data:`INSTRUMENT_BYTES` of the fixed leader) first changes
     between ensembles next in the file, said with what a user can do; "" when it never does: recordings of two
     instruments joined in one file, which dolfyn cannot read."""
-    def instrument(start: int) -> bytes:
-        offsets = struct.unpack_from(f"<{raw[start + 5]}H", raw, start + 6)
-        fixed = next((start + o for o in offsets if raw[start + o:start + o + 2] == b"\x00\x00"), None)
-        return b"" if fixed is None else bytes(raw[fixed + i] for i in INSTRUMENT_BYTES if fixed + i < len(raw))
     in_file = sorted(zip((a for a, _ in scan.spans), scan.numbers))
     for (a, n), (b, m) in zip(in_file, in_file[1:]):
-        if instrument(a) != instrument(b):
+        if _fixed_bytes(raw, a, INSTRUMENT_BYTES) != _fixed_bytes(raw, b, INSTRUMENT_BYTES):
             return (f"the instrument (firmware, beams or serial number of the fixed leader) changes from ensemble {n} "
                     f"(byte {a}) to ensemble {m} (byte {b}): recordings of two instruments joined in one file; load "
+                    f"each from a file of its own (the bytes before {b} and from {b} on)")
+    return ""
+
+
+def _fixed_bytes(raw: bytes, start: int, which: tuple) -> bytes:
+    """The bytes ``which`` (offsets) of the fixed leader of the ensemble at byte ``start``; b"" without one."""
+    offsets = struct.unpack_from(f"<{raw[start + 5]}H", raw, start + 6)
+    fixed = next((start + o for o in offsets if raw[start + o:start + o + 2] == b"\x00\x00"), None)
+    return b"" if fixed is None else bytes(raw[fixed + i] for i in which if fixed + i < len(raw))
+
+
+#: The fixed leader's byte of the EX command (coordinate transformation): bits 3-4 the frame of the velocities.
+EX_BYTE = 25
+#: The frame of each value of the EX bits 3-4 (RDI P/N 951-6079-00), graphnav's names (:attr:`DvlLog.frame`).
+EX_FRAMES = ("beam", "instrument", "ship", "earth")
+
+
+def _frame_change(raw: bytes, scan: Pd0Scan) -> str:
+    """Where the frame of the velocities (the EX bits of the fixed leader) first changes between ensembles next in
+    time (:attr:`Pd0Scan.spans`), said with what a user can do; "" when it never does: a second recording set up in
+    another frame joined behind the first, which dolfyn would read in one frame."""
+    def frame(start: int) -> str:
+        ex = _fixed_bytes(raw, start, (EX_BYTE,))
+        return EX_FRAMES[(ex[0] >> 3) & 3] if ex else ""
+    for (a, _), (b, _), n, m in zip(scan.spans, scan.spans[1:], scan.numbers, scan.numbers[1:]):
+        if frame(a) != frame(b):
+            return (f"the frame of the velocities (EX bits of the fixed leader) changes from {frame(a)} in ensemble "
+                    f"{n} (byte {a}) to {frame(b)} in ensemble {m} (byte {b}): recordings set up differently joined in "
+                    f"one file, which dolfyn would read in one frame (the pings of one turned as the other's); load "
                     f"each from a file of its own (the bytes before {b} and from {b} on)")
     return ""
 
