@@ -635,3 +635,30 @@ def test_a_second_recording_in_another_frame_joined_without_a_cut_is_refused_nam
                 f"recordings set up differently joined in one file") + ".*" + re.escape(
                 f"load each from a file of its own (the bytes before {len(raw)} and from {len(raw)} on)")):
             read_dvl(path)
+
+
+def test_an_instrument_restarted_seconds_later_in_the_same_file_is_named_as_a_second_recording(pd0_dir, tmp_path):
+    """winriver01.PD0 with itself joined behind 5 s after its last ping (numbers starting again at 224, the clock
+    running on by under 10 of its 1.31 s steps): warned naming where the second recording begins and counted, read
+    as one log. It was read without a word; one ensemble number out of line (324 written as 5) is no restart."""
+    src = pd0_dir / "winriver01.PD0"
+    raw, spans, clock = src.read_bytes(), pd0.scan_pd0(src).spans, _clock(src)
+    path = tmp_path / "restarted" / src.name
+    path.parent.mkdir()
+    path.write_bytes(raw + b"".join(_retimed(src, clock - clock[0] + clock[-1] + 5.0)))
+    log, said = _read_warned(path)
+    assert [s for s in said if "recording(s) joined" in s] == [
+        f"{path}: 1 recording(s) joined behind another without a cut: ensemble 224 (byte {len(raw)}) after ensemble "
+        f"485 (byte {spans[-1][0]}) starts the ensemble numbers again 5.00 s later; read as one log with a gap of no "
+        f"pings there (to load one recording, cut the file at byte {len(raw)})"]
+    assert log.counts[pd0.JOINED_RECORDING] == 1 and len(log.t) == 2 * len(spans) - 1
+    parts = [bytearray(raw[a:b]) for a, b in spans]
+    leader = next(o for o in struct.unpack_from(f"<{parts[100][5]}H", parts[100], 6)
+                  if struct.unpack_from("<H", parts[100], o)[0] == 0x0080)
+    struct.pack_into("<H", parts[100], leader + 2, 5)
+    struct.pack_into("<H", parts[100], len(parts[100]) - 2, sum(parts[100][:-2]) & 0xFFFF)
+    path = tmp_path / "glitch" / src.name
+    path.parent.mkdir()
+    path.write_bytes(b"".join(parts))
+    log, said = _read_warned(path)
+    assert pd0.JOINED_RECORDING not in log.counts and not [s for s in said if "joined" in s]

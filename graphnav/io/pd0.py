@@ -404,21 +404,25 @@ def _runs_on(before: int, after: int) -> bool:
 
 
 #: A second recording joined behind the first without a cut: the ensemble numbers start again and the clock jumps
-#: on by more than this many of the file's median steps (an instrument restarted within a ping or two keeps its time).
+#: on by more than this many of the file's median steps, or on by less and the numbers run on from where they
+#: started again (an instrument restarted within seconds keeps its time, but is restarted: its set-up may differ).
 JOIN_GAP_STEPS = 10
 
 
 def _joins(numbers: np.ndarray, t: np.ndarray, spans: list) -> list:
     """``(number, byte offset, number, byte offset, gap s)`` of each place where, in time order (``numbers``, clock
     ``t`` Unix s, ``spans``), the ensemble numbers start again (not after the one before) while the clock jumps on by
-    more than :data:`JOIN_GAP_STEPS` median steps: a second recording (the instrument restarted later, files of two
-    recordings concatenated) joined behind the first without a cut."""
+    more than :data:`JOIN_GAP_STEPS` median steps, or on by less and the next number runs on from the new one and is
+    still behind the old one (a single number out of line is no restart): a second recording (the instrument
+    restarted, files of two recordings concatenated) joined behind the first without a cut."""
     if len(t) < 3 or min(numbers) < 0:
         return []
     dt_s = np.diff(t)
     step = float(np.median(dt_s[dt_s > 0])) if np.any(dt_s > 0) else 0.0
+    restarted = [i + 2 == len(t) or _runs_on(numbers[i + 1], numbers[i + 2]) and _runs_on(numbers[i + 2], numbers[i])
+                 for i in range(len(dt_s))]
     return [(int(numbers[i]), spans[i][0], int(numbers[i + 1]), spans[i + 1][0], float(dt_s[i]))
-            for i in np.flatnonzero(dt_s > JOIN_GAP_STEPS * step)
+            for i in np.flatnonzero((dt_s > JOIN_GAP_STEPS * step) | ((dt_s > 0) & np.array(restarted)))
             if not _runs_on(numbers[i], numbers[i + 1])]
 
 
