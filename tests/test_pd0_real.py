@@ -662,3 +662,23 @@ def test_an_instrument_restarted_seconds_later_in_the_same_file_is_named_as_a_se
     path.write_bytes(b"".join(parts))
     log, said = _read_warned(path)
     assert pd0.JOINED_RECORDING not in log.counts and not [s for s in said if "joined" in s]
+
+
+def test_a_dvl_clock_that_stops_and_runs_on_from_where_it_stood_is_said_to_have_lost_the_time(pd0_dir, tmp_path):
+    """winriver01.PD0 whose clock stands still for 50 pings (from its 101st) and then runs on from where it stood,
+    one step (1.31 s) on: the 50 pings take 65.5 s at the ping period, so the clock lost about 64.2 s and every time
+    after is that early; the warning says so and what to give instead. It said only that the clock "then jumped
+    1.31 s" and the pings were spread up to it, as if the times after were right."""
+    src = pd0_dir / "winriver01.PD0"
+    true = _clock(src)
+    recorded = true.copy()
+    recorded[100:150] = true[100]
+    recorded[150:] -= true[149] - true[100]
+    path = tmp_path / src.name
+    path.write_bytes(b"".join(_retimed(src, recorded)))
+    dvl, meta, said = _read_for_a_mission(path)
+    assert meta["streams"]["dvl"]["doubted"] == {pd0.STALLED_TIME: 49}
+    note = [s for s in said if "stood still" in s]
+    assert len(note) == 1 and ("after the 50 pings at 2017-04-05 08:11:28.81 it ran on only 1.31 s where they take "
+                               "65.5 s at the ping period: the clock lost about 64.2 s there") in note[0]
+    assert "(a CSV of DVL velocities: t, vx, vy, vz)" in note[0]

@@ -1370,7 +1370,7 @@ def _stall_note(t: np.ndarray, spread: np.ndarray, stalled: np.ndarray, where: l
     nxt = t[t > t[first]]
     jump = f"then jumped {nxt[0] - t[first]:.2f} s" if len(nxt) else "to the end of the file"
     runs = int(np.sum(stalled[1:] & ~stalled[:-1]) + stalled[0])
-    starts, sizes, _ = _time_groups(t)
+    starts, sizes, room = _time_groups(t)
     own = _own_times(sizes)
     rank = np.arange(len(t)) - np.repeat(starts, sizes)
     paused = int(np.sum(stalled & (spread - t > rank * period + 1e-6)))
@@ -1380,6 +1380,14 @@ def _stall_note(t: np.ndarray, spread: np.ndarray, stalled: np.ndarray, where: l
         tail += (f"; after its last time ({_utc(t[-1])}) it never ran on: those {int(np.sum(t == t[-1]))} pings are "
                 f"dead-reckoned at the ping period ({period:.3f} s, "
                 f"{'its steps' if own else 'what its stalls ended in'}), not squeezed into its tick")
+    lost = (np.add.reduceat(stalled, starts) > 0) & (room < (sizes - 1 - STALL_MARGIN_PERIODS) * period)
+    if lost.any():          # the clock ran on from where it stood, not from the right time: it lost the stall
+        g = int(np.flatnonzero(lost)[0])
+        tail += (f"; after the {sizes[g]} pings at {_utc(t[starts[g]])} it ran on only {room[g]:.2f} s where they take "
+                 f"{sizes[g] * period:.1f} s at the ping period: the clock lost about {sizes[g] * period - room[g]:.1f} s "
+                 "there (it ran on from where it stood), so those pings are squeezed into that step and every time "
+                 "after it is that much early" + (f" ({int(lost.sum())} such stall(s))" if lost.sum() > 1 else "")
+                 + "; give the pings their times if another clock has them (a CSV of DVL velocities: t, vx, vy, vz)")
     return (f"the DVL's clock stood still: {run} pings from {where[head]} share its time {_utc(t[first])}, "
             f"{jump}, " + ("while elsewhere it gives each ping a time of its own" if own else
                            "more pings than a DVL takes within one tick of its clock")
