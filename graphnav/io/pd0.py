@@ -39,11 +39,11 @@ then equals RDI's bottom-track beam velocity as recorded, and a convex head has 
   bytes before the first ensemble (a logger that started mid-ensemble or wrote a preamble), bytes between two whole
   ensembles (a CR LF or time tag a logger wrote, a header written twice; both ensembles are read), bytes after the
   last one and a second recording joined behind the first without a cut (its numbers start again: warned and
-  read on where its clock runs on, refused where it runs back) and an ensemble written
-  again byte for byte anywhere after itself (a logger's retry, a file appended to itself: the same ping twice,
-  which dolfyn cannot read or reads as time running back); an ensemble cut short by the next one whose bytes are
-  those of an ensemble read whole (or of the one the file ends in) is such a copy too: the cut end of a file with a
-  copy of it joined behind, not a corrupt ensemble.
+  read on where its clock runs on, refused where it runs back or the frame of its velocities differs) and an
+  ensemble written again byte for byte anywhere after itself (a logger's retry, a file appended to itself: the
+  same ping twice, which dolfyn cannot read or reads as time running back); an ensemble cut short by the next one
+  whose bytes are those of an ensemble read whole (or of the one the file ends in) is such a copy too: the cut end
+  of a file with a copy of it joined behind, not a corrupt ensemble.
 * ensembles stored out of time order are put in order by their own clock (the variable leader's RTC) when their
   ensemble numbers agree (counted on across a roll-over 65535 -> 0 without the high byte, also where other
   ensembles of the file carry it), warned about and
@@ -1383,8 +1383,9 @@ def _stall_note(t: np.ndarray, spread: np.ndarray, stalled: np.ndarray, where: l
     lost = (np.add.reduceat(stalled, starts) > 0) & (room < (sizes - 1 - STALL_MARGIN_PERIODS) * period)
     if lost.any():          # the clock ran on from where it stood, not from the right time: it lost the stall
         g = int(np.flatnonzero(lost)[0])
+        need_s = sizes[g] * period
         tail += (f"; after the {sizes[g]} pings at {_utc(t[starts[g]])} it ran on only {room[g]:.2f} s where they take "
-                 f"{sizes[g] * period:.1f} s at the ping period: the clock lost about {sizes[g] * period - room[g]:.1f} s "
+                 f"{need_s:.1f} s at the ping period: the clock lost about {need_s - room[g]:.1f} s "
                  "there (it ran on from where it stood), so those pings are squeezed into that step and every time "
                  "after it is that much early" + (f" ({int(lost.sum())} such stall(s))" if lost.sum() > 1 else "")
                  + "; give the pings their times if another clock has them (a CSV of DVL velocities: t, vx, vy, vz)")
