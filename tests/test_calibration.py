@@ -303,3 +303,24 @@ def test_a_dvl_too_short_for_the_gt_fit_is_refused_naming_its_file():
                                             r"ground truth and the IMU \(\[0\.000, 60\.000\] s\) at every time offset "
                                             r"searched \(-3 to \+3 s\): the DVL fit needs 20$"):
             calibrate_with_gt(m)
+
+
+def test_a_mission_too_shallow_for_the_gt_fit_is_refused_for_its_depth_not_its_overlap():
+    """A simulated 60 s mission at 1 m depth (a tank or a survey at the surface): every ping with a velocity is left out
+    of the DVL fit as shallower than its 2 m limit, and the fit refused it as '0 of the 0 usable DVL pings overlap the
+    ground truth and the IMU ... at every time offset searched', naming the stamps: a user looked for a clock or a span
+    fault. It says how many pings are deeper than the limit and how to lower it."""
+    import warnings
+
+    from graphnav.calibration.calibrate import calibrate_with_gt
+    from graphnav.core.errors import DataError
+    m = simulate_mission(duration_s=60.0, seed=3)
+    m = dataclasses.replace(m, depth=dataclasses.replace(m.depth, depth=np.full_like(m.depth.depth, 1.0)),
+                            dvl=dataclasses.replace(m.dvl, source="logs/dvl.csv"))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        with pytest.raises(DataError, match=r"^logs/dvl\.csv: 0 of the 61 DVL pings with a velocity were taken deeper "
+                                            r"than 2 m .*the fit needs 20; for a mission this shallow, lower the limit "
+                                            r"\(graphnav calibrate --min-depth\)$"):
+            calibrate_with_gt(m)
+        assert calibrate_with_gt(m, min_depth_m=0.5).info["pings_used"] > 20
