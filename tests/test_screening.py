@@ -3294,6 +3294,25 @@ def test_an_imu_refused_for_a_dead_accelerometer_names_its_columns_not_the_strea
         _quiet_load(load_akit, folder)
 
 
+def test_an_akit_imu_without_any_measurement_is_refused_for_what_it_holds_not_its_units(akit_dir, tmp_path):
+    """Trajectory1's A-KIT IMU file with the accelerometer's three values 0 on every row beside a live gyro, or every
+    row a logger's filler (stamps kept): the unit check, which leaves out the rows without a measurement, judged them
+    all when no row was left, and both were refused as 'median |f_b| = 0: not gravity in m/s^2 (9.8), g (1) or
+    milli-g (1000)', naming field 'f_b'. A dead accelerometer is refused naming its columns, as on 60 % of the rows,
+    and a file of filler only as such, naming the file, as a column map's are."""
+    from graphnav.missions import load_akit
+
+    dead = r"field 'ACC X \[m/s\^2\], ACC Y \[m/s\^2\], ACC Z \[m/s\^2\]': 40000 of 40000 imu samples refused"
+    filler = r"IMU_trajectory1\.csv, line \d+: all \d+ IMU rows are all-zero"
+    for name, values, said in (("dead", lambda c: ["0", "0", "0", *c[4:]], dead),
+                               ("filler", lambda c: ["0"] * 6, filler)):
+        folder = _copy_trajectory(akit_dir, tmp_path / name)
+        _edit_lines(folder / "IMU_trajectory1.csv", lambda lines: lines[:1] + [
+            ",".join([line.split(",")[0], *values(line.split(","))]) for line in lines[1:]])
+        with pytest.raises(DataError, match=said):
+            _quiet_load(load_akit, folder)
+
+
 def test_an_imu_stall_beside_filler_rows_is_refused_as_a_stall_and_the_filler_as_filler(akit_dir, tmp_path):
     """Trajectory1 as a column map with 50 rows of a logger's filler (0.5 s at t = 100 s, stamps kept or zeroed) right
     after 60 rows (0.6 s) repeating one reading (a stalled sensor): each is refused under its own reason (the filler's

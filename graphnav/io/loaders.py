@@ -483,10 +483,10 @@ def _akit_units(imu: np.ndarray, dvl: np.ndarray, gt: np.ndarray | None, lines: 
             a[:, 0] = stamps_in_seconds(a[:, 0], stream, str(files[kind]), meta, rate, field=AKIT_COLUMNS[kind][0],
                                         lines=lines[stream])
     # a row with a NaN, a logger's filler or a dead accelerometer's zeros is refused afterwards (imu_unmeasured): no
-    # measurement in any unit, the units are judged without them (a dead accelerometer was 'not gravity in m/s^2')
-    finite = np.all(np.isfinite(imu[:, 1:7]), axis=1)
-    measured = finite & np.any(imu[:, 1:4] != 0.0, axis=1)
-    rows = np.flatnonzero(measured if measured.any() else finite)
+    # measurement in any unit, the units are judged without them (a dead accelerometer was 'not gravity in m/s^2',
+    # and so was a file of them or of filler only, which the refusal names)
+    measured = np.all(np.isfinite(imu[:, 1:7]), axis=1) & np.any(imu[:, 1:4] != 0.0, axis=1)
+    rows = np.flatnonzero(measured)
     f_b, omega_b = imu_units(imu[rows, 0], imu[rows, 1:4], imu[rows, 4:7], str(files["IMU"]), meta,
                              fields=AKIT_COLUMNS["IMU"][1:7])
     imu[rows, 1:7] = np.hstack([f_b, omega_b])
