@@ -285,7 +285,11 @@ def read_csv(path: str | Path, columns: tuple[str, ...], *, nan_ok: tuple[str, .
     header = [h.strip() for h in lines[0].split(",")]
     missing = [c for c in columns if c not in header]
     if missing:
-        raise DataError(f"missing column(s) {missing}; header is {header}, expected {list(columns)}",
+        # a spreadsheet set to a decimal comma separates the cells by ';' (the columns are all there)
+        other = next((d for d in (";", "\t") if [h.strip() for h in lines[0].split(d)] == list(columns)), None)
+        told = (f"; the header's cells are separated by {other!r}, an A-KIT file's by ',' (write ',' between cells and "
+                "decimal points)") if other else ""
+        raise DataError(f"missing column(s) {missing}; header is {header}, expected {list(columns)}{told}",
                         source, 1, missing[0])
     if header != list(columns):
         raise DataError(f"unexpected header {header}, expected {list(columns)}", source, 1,
