@@ -1378,7 +1378,8 @@ def test_a_bag_loaded_then_screened_has_its_imu_screened_once(tmp_path, monkeypa
     """A bag read by ``load_bag`` (its IMU messages holding no measurement refused at read) and then screened by
     ``screen_mission``: each rule runs once. Screened a second time (the mission and its meta passed on), its IMU was
     screened again, the gap check and the full-scale and spike rules run twice on rows already screened. Now a mission
-    screened once keeps its IMU as screened."""
+    screened once keeps its IMU as screened, and the mission read, screened again, is screened again (marked in the
+    meta both share, its IMU was kept unscreened)."""
     from graphnav.core import screening
     from graphnav.io import loaders
     calls = {"gaps": 0, "plausible": 0}
@@ -1392,15 +1393,20 @@ def test_a_bag_loaded_then_screened_has_its_imu_screened_once(tmp_path, monkeypa
     mission.imu.f_b[1200, 0] = 500.0
     path = bag_driver.write_driver_bag(mission, tmp_path / "bag", leak_sensor=False, housing_sensor=False)
     with pytest.warns(RuntimeWarning):
-        m = bags.load_bag(path, mission.config)
+        raw = bags.load_bag(path, mission.config)
         assert calls == {"gaps": 1, "plausible": 0}
-        m = loaders.screen_mission(m)
+        m = loaders.screen_mission(raw)
     assert calls == {"gaps": 1, "plausible": 1}
     refused = dict(m.meta["streams"]["imu"]["refused"])
     assert refused == {screening.ACCEL_ZERO: 2, "f_b beyond 156.906 m/s^2": 1} and len(m.imu.t) == 1998
     again = loaders.screen_mission(m)
     assert calls == {"gaps": 1, "plausible": 1}
     assert again.meta["streams"]["imu"]["refused"] == refused and len(again.imu.t) == 1998
+    # the mission load_bag gave, screened again (its meta shared with the one screened): its IMU was kept unscreened,
+    # the 500 m/s^2 row used without a word; only the mission screening returned is marked
+    with pytest.warns(RuntimeWarning, match="f_b beyond 156.906 m/s"):
+        twice = loaders.screen_mission(raw)
+    assert calls["plausible"] == 2 and len(twice.imu.t) == 1998 and np.abs(twice.imu.f_b).max() < 100.0
 
 
 def test_filler_with_zeroed_stamps_beside_a_message_published_twice_keeps_the_header_stamps(tmp_path):
