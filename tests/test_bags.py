@@ -1378,7 +1378,8 @@ def test_a_bag_loaded_then_screened_has_its_imu_screened_once(tmp_path, monkeypa
     """A bag read by ``load_bag`` (its IMU messages holding no measurement refused at read) and then screened by
     ``screen_mission``: each rule runs once. Screened a second time (the mission and its meta passed on), its IMU was
     screened again, the gap check and the full-scale and spike rules run twice on rows already screened. Now a mission
-    screened once keeps its IMU as screened."""
+    screened once keeps its IMU as screened, and the mission read, screened again, is screened again (marked in the
+    meta both share, its IMU was kept unscreened)."""
     from graphnav.core import screening
     from graphnav.io import loaders
     calls = {"gaps": 0, "plausible": 0}
@@ -1392,12 +1393,46 @@ def test_a_bag_loaded_then_screened_has_its_imu_screened_once(tmp_path, monkeypa
     mission.imu.f_b[1200, 0] = 500.0
     path = bag_driver.write_driver_bag(mission, tmp_path / "bag", leak_sensor=False, housing_sensor=False)
     with pytest.warns(RuntimeWarning):
-        m = bags.load_bag(path, mission.config)
+        raw = bags.load_bag(path, mission.config)
         assert calls == {"gaps": 1, "plausible": 0}
-        m = loaders.screen_mission(m)
+        m = loaders.screen_mission(raw)
     assert calls == {"gaps": 1, "plausible": 1}
     refused = dict(m.meta["streams"]["imu"]["refused"])
     assert refused == {screening.ACCEL_ZERO: 2, "f_b beyond 156.906 m/s^2": 1} and len(m.imu.t) == 1998
     again = loaders.screen_mission(m)
     assert calls == {"gaps": 1, "plausible": 1}
     assert again.meta["streams"]["imu"]["refused"] == refused and len(again.imu.t) == 1998
+    # the mission load_bag gave, screened again (its meta shared with the one screened): its IMU was kept unscreened,
+    # the 500 m/s^2 row used without a word; only the mission screening returned is marked
+    with pytest.warns(RuntimeWarning, match="f_b beyond 156.906 m/s"):
+        twice = loaders.screen_mission(raw)
+    assert calls["plausible"] == 2 and len(twice.imu.t) == 1998 and np.abs(twice.imu.f_b).max() < 100.0
+
+
+def test_filler_with_zeroed_stamps_beside_a_message_published_twice_keeps_the_header_stamps(tmp_path):
+    """21 IMU messages of filler with their header stamps zeroed and, elsewhere, one message published again at its
+    header stamp 1 ms later: each alone leaves the topic on its header stamps (the filler taken out, the copy dropped);
+    together the copy's repeated stamp made the other stamps 'not sane' and the topic was put on its receive time ('21
+    header stamp(s) are zero'). The copy is left out before the other stamps are judged: both are dropped under their
+    reasons, the topic on its header stamps, each message named by its index in the topic."""
+    import warnings
+
+    from graphnav.core.screening import EXACT_COPY, IMU_FILLER
+    mission = simulate_mission(duration_s=40.0, seed=5)
+    rows = list(range(1000, 1021))
+    mission.imu.f_b[rows], mission.imu.omega_b[rows] = 0.0, 0.0
+    path = _published_twice(_zeroed_header_bag(mission, tmp_path / "zeroed", rows), tmp_path / "twice.mcap",
+                            {"/imu/data": [(3000, 0, 1_000_000, None)]})
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        m = bags.load_bag(path, mission.config)
+    warned = [str(w.message) for w in caught]
+    imu = m.meta["streams"]["imu"]
+    assert m.meta["clock"]["stamps"]["imu"] == "header" and imu["refused"] == {IMU_FILLER: 21, EXACT_COPY: 1}
+    assert not [n for n in imu.get("notes", []) if "receive time" in n]
+    assert any("/imu/data: 1 row(s) repeating an earlier row exactly (same stamp and values) dropped, at message 3001 "
+               "(t = 30.000 s)" in w for w in warned), warned
+    assert any("21 imu sample(s) refused (21 all-zero IMU row" in w and "received at message 1000 (t = 10.000 s)" in w
+               for w in warned)
+    keep = np.setdiff1d(np.arange(len(mission.imu.t)), rows)
+    np.testing.assert_allclose(m.imu.t - m.imu.t[0], mission.imu.t[keep] - mission.imu.t[0], atol=1e-6)

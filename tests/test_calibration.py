@@ -290,7 +290,8 @@ def test_the_positions_are_labelled_with_the_point_they_are_measured_from(missio
 def test_a_dvl_too_short_for_the_gt_fit_is_refused_naming_its_file():
     """A simulated 60 s mission whose DVL file holds its first 15 pings only: the GT calibration refused it as 'dvl:
     fewer than 20 DVL pings overlap the ground truth', naming no file. It names the DVL's file and its stamp field,
-    how many pings overlap of those usable and the span they must lie in."""
+    how many pings overlap of those usable and the span they must lie in. One too shallow for the fit (every ping
+    above its depth limit) is refused for that, with how to lower the limit."""
     import warnings
 
     from graphnav.calibration.calibrate import calibrate_with_gt
@@ -303,3 +304,13 @@ def test_a_dvl_too_short_for_the_gt_fit_is_refused_naming_its_file():
                                             r"ground truth and the IMU \(\[0\.000, 60\.000\] s\) at every time offset "
                                             r"searched \(-3 to \+3 s\): the DVL fit needs 20$"):
             calibrate_with_gt(m)
+        # at 1 m (a tank, a survey at the surface) every ping is shallower than the fit's 2 m limit: it was '0 of the 0
+        # usable DVL pings overlap the ground truth and the IMU ...', a clock or span fault to look for; it is the depth
+        m = simulate_mission(duration_s=60.0, seed=3)
+        m = dataclasses.replace(m, depth=dataclasses.replace(m.depth, depth=np.full_like(m.depth.depth, 1.0)),
+                                dvl=dataclasses.replace(m.dvl, source="logs/dvl.csv"))
+        with pytest.raises(DataError, match=r"^logs/dvl\.csv: 0 of the 61 DVL pings with a velocity were taken deeper "
+                                            r"than 2 m .*the fit needs 20; for a mission this shallow, lower the limit "
+                                            r"\(graphnav calibrate --min-depth\)$"):
+            calibrate_with_gt(m)
+        assert calibrate_with_gt(m, min_depth_m=0.5).info["pings_used"] > 20

@@ -1531,3 +1531,21 @@ def test_an_akit_file_with_a_decimal_comma_is_told_so_not_too_many_fields(tmp_pa
     path.write_text("\n".join([header, *lines]) + "\n")
     with pytest.raises(DataError, match=r"line 4, field 'ACC Y \[m/s\^2\]': not a number: '\"0\.2\"'"):
         read_csv(path, AKIT_COLUMNS["IMU"])
+
+
+def test_an_akit_file_separated_by_semicolons_is_told_its_separator(tmp_path):
+    """An A-KIT IMU file written by a spreadsheet set to a decimal comma: cells separated by ';' and "0,5" numbers. It
+    was refused as 'missing column(s) [all seven]; header is ['Time [s];ACC X [m/s^2];...']', the columns there but
+    the separator not named. The refusal says the cells are separated by ';' (or tab) and what an A-KIT file needs."""
+    from graphnav.io.loaders import AKIT_COLUMNS, read_csv
+    for sep in (";", "\t"):
+        rows = [sep.join(["0,01", "0,1", "0,2", "-9,8", "0,01", "0,02", "0,03"])] * 3
+        path = tmp_path / "IMU_trajectory1.csv"
+        path.write_text("\n".join([sep.join(AKIT_COLUMNS["IMU"]), *rows]) + "\n")
+        told = (rf"line 1, field 'Time \[s\]': missing column\(s\) .*; the header's cells are separated by "
+                rf"{re.escape(repr(sep))}, an A-KIT file's by ',' \(write ',' between cells and decimal points\)$")
+        with pytest.raises(DataError, match=told):
+            read_csv(path, AKIT_COLUMNS["IMU"])
+    path.write_text("Time [s],ACC X [m/s^2]\n0.1,0.2\n")     # a column missing: named as before
+    with pytest.raises(DataError, match=r"missing column\(s\) \['ACC Y .*expected .*'GYRO Z \[rad/s\]'\]$"):
+        read_csv(path, AKIT_COLUMNS["IMU"])

@@ -3247,6 +3247,32 @@ def test_a_nan_run_split_by_one_row_beyond_full_scale_is_one_gap_naming_its_line
         imu_unmeasured(t, f_b, omega_b, source="imu.csv", lines=np.arange(10) + 2)
 
 
+def test_rows_alone_among_rows_without_a_measurement_end_a_gap_that_can_be_bridged_without_them():
+    """A merged log's IMU at 10 Hz with another sensor's rows between its rows for 800 s (their IMU cells empty: every
+    other row NaN, 44 % of the file): each good row was alone between two NaN rows, and the 800 s were refused as one
+    IMU gap ('15999 IMU row(s) without a measurement (...; 7999 alone between them, which bridge nothing) of 800 s')
+    where the IMU's rows are 0.1 s apart. A row alone ends the runs where the gap it splits can be bridged without it.
+    A NaN first (or last) row beside one good row hid the 700 s gap after (before) that row: the run reached the
+    file's start (end) and was not checked, and Trajectory1 so edited was refused for its axes ('turned 270 deg') or
+    read with a 700 s step. That gap is refused at read, naming its line, as without the NaN row."""
+    from graphnav.core.screening import imu_unmeasured
+    t = np.arange(18001) * 0.05
+    f_b, omega_b = np.tile([0.1, 0.0, -9.8], (len(t), 1)), np.full((len(t), 3), 0.01)
+    f_b[2001:17999:2] = np.nan
+    assert imu_unmeasured(t, f_b, omega_b, source="log.csv")["empty or NaN in 'f_b x'"].sum() == 7999
+    t = np.concatenate([[0.0, 0.01], 0.01 + np.arange(1, 701.0), 700.01 + np.arange(1, 100) * 0.01])
+    f_b, omega_b = np.tile([0.1, 0.0, -9.8], (len(t), 1)), np.full((len(t), 3), 0.01)
+    f_b[[0, *range(2, 701)]] = np.nan
+    lines = np.arange(len(t)) + 2
+    with pytest.raises(DataError, match=r"line 703: IMU gap left by 699 IMU row\(s\) without a measurement \(NaN or "
+                                        r"infinite values\) of 700 s after t = 0\.010 s"):
+        imu_unmeasured(t, f_b, omega_b, source="imu.csv", lines=lines)
+    t, f_b = t[-1] - t[::-1], f_b[::-1]
+    with pytest.raises(DataError, match=r"line 801: IMU gap left by 699 IMU row\(s\) without a measurement \(NaN or "
+                                        r"infinite values\) of 700 s after t = 0\.990 s"):
+        imu_unmeasured(t, f_b, omega_b, source="imu.csv", lines=lines)
+
+
 def test_an_imu_refused_for_a_dead_accelerometer_names_its_columns_not_the_stream(akit_dir, tmp_path):
     """Trajectory1 as a column map and as an A-KIT folder with the accelerometer's three values 0 beside a live gyro
     on 60 % of the rows: the column map was refused as more than half of the IMU, naming the field 'imu' (no column
@@ -3266,6 +3292,25 @@ def test_an_imu_refused_for_a_dead_accelerometer_names_its_columns_not_the_strea
     _edit_lines(folder / "IMU_trajectory1.csv", dead)
     with pytest.raises(DataError, match=rf"IMU_trajectory1\.csv, {columns}"):
         _quiet_load(load_akit, folder)
+
+
+def test_an_akit_imu_without_any_measurement_is_refused_for_what_it_holds_not_its_units(akit_dir, tmp_path):
+    """Trajectory1's A-KIT IMU file with the accelerometer's three values 0 on every row beside a live gyro, or every
+    row a logger's filler (stamps kept): the unit check, which leaves out the rows without a measurement, judged them
+    all when no row was left, and both were refused as 'median |f_b| = 0: not gravity in m/s^2 (9.8), g (1) or
+    milli-g (1000)', naming field 'f_b'. A dead accelerometer is refused naming its columns, as on 60 % of the rows,
+    and a file of filler only as such, naming the file, as a column map's are."""
+    from graphnav.missions import load_akit
+
+    dead = r"field 'ACC X \[m/s\^2\], ACC Y \[m/s\^2\], ACC Z \[m/s\^2\]': 40000 of 40000 imu samples refused"
+    filler = r"IMU_trajectory1\.csv, line \d+: all \d+ IMU rows are all-zero"
+    for name, values, said in (("dead", lambda c: ["0", "0", "0", *c[4:]], dead),
+                               ("filler", lambda c: ["0"] * 6, filler)):
+        folder = _copy_trajectory(akit_dir, tmp_path / name)
+        _edit_lines(folder / "IMU_trajectory1.csv", lambda lines: lines[:1] + [
+            ",".join([line.split(",")[0], *values(line.split(","))]) for line in lines[1:]])
+        with pytest.raises(DataError, match=said):
+            _quiet_load(load_akit, folder)
 
 
 def test_an_imu_stall_beside_filler_rows_is_refused_as_a_stall_and_the_filler_as_filler(akit_dir, tmp_path):

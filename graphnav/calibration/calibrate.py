@@ -34,6 +34,7 @@ from scipy.spatial.transform import Rotation
 
 from graphnav.calibration.axes import apply_axis_map, check_imu_axes_with_gt
 from graphnav.calibration.dvl_fit import (
+    MIN_FIT_PINGS,
     calibrate_dvl_with_gt,
     dvl_velocity,
     estimate_imu_position,
@@ -48,7 +49,8 @@ from graphnav.core.mission import Mission
 def calibrate_with_gt(mission: Mission, min_depth_m: float = 2.0) -> CalibrationResult:
     """Calibrate against the mission's ground truth (see the module docstring).
 
-    Pings shallower than ``min_depth_m`` (surface, waves) are left out of the DVL regression.
+    Pings shallower than ``min_depth_m`` (surface, waves) are left out of the DVL regression; fewer than
+    :data:`MIN_FIT_PINGS` deeper is a DataError naming the DVL's file and the limit.
     """
     if mission.gt is None:
         raise DataError("calibration with GT needs a mission with ground truth", mission.name, field="gt")
@@ -59,8 +61,15 @@ def calibrate_with_gt(mission: Mission, min_depth_m: float = 2.0) -> Calibration
     ref = Reference(work.imu.t, work.imu.f_b, work.imu.omega_b, gt_t, work.gt.v_n, work.gt.C_b_n,
                     cfg0.gravity_mps2, cfg0.lat_rad if cfg0.earth_rotation else None, cfg0.dvl)
     v_dvl, usable = dvl_velocity(work)
-    usable &= submerged_pings(work, min_depth_m) if work.depth is not None else True
-    fit, off_sigma = calibrate_dvl_with_gt(ref, work.dvl.t, v_dvl, usable, source=work.dvl.source or mission.name)
+    source = work.dvl.source or mission.name
+    deep = submerged_pings(work, min_depth_m)
+    if (usable & deep).sum() < MIN_FIT_PINGS <= usable.sum():
+        # the fit's own error would blame the pings' overlap with the GT ('0 of the 0 usable DVL pings overlap')
+        raise DataError(f"{int((usable & deep).sum())} of the {int(usable.sum())} DVL pings with a velocity were "
+                        f"taken deeper than {min_depth_m:g} m (the depth stream at their times; nearer the surface "
+                        f"waves move the vehicle, and the DVL fit leaves them out): the fit needs {MIN_FIT_PINGS}; for "
+                        "a mission this shallow, lower the limit (graphnav calibrate --min-depth)", source)
+    fit, off_sigma = calibrate_dvl_with_gt(ref, work.dvl.t, v_dvl, usable & deep, source=source)
     sig = np.sqrt(np.diag(fit.cov))
     th = fit.theta
     cfg = SensorConfig.from_dict(cfg0.to_dict())

@@ -777,16 +777,16 @@ def check_filler_gaps(t: np.ndarray, filler: np.ndarray, source: str, lines: np.
     stopped there as it does in a true gap of that length, whatever the rows hold. ``filler`` (N,) bool: the
     all-zero rows; ``unmeasured`` (N,) bool: those and any other row refused for holding no measurement (a NaN, a dead
     accelerometer, :func:`imu_unmeasured`; default ``filler``): filler next to NaN rows leaves one gap, and so do NaN
-    rows alone. A lone row between two such runs does not end the gap (:func:`_lone_rows`). A run at either end of the
-    file only starts the IMU later or ends it earlier; a file of filler only is a DataError too (the IMU delivered
-    nothing). ``dead`` (N,) bool: the rows of a dead accelerometer among ``unmeasured`` (:data:`ACCEL_ZERO`; default
-    none), which the message names as such (:func:`_left_by`); ``row``: what the file calls a row (a bag's: a message
-    of its topic)."""
+    rows alone. A lone row between two such runs does not end a gap it alone keeps from being too long
+    (:func:`_lone_rows`). A run at either end of the file only starts the IMU later or ends it earlier; a file of
+    filler only is a DataError too (the IMU delivered nothing). ``dead`` (N,) bool: the rows of a dead accelerometer
+    among ``unmeasured`` (:data:`ACCEL_ZERO`; default none), which the message names as such (:func:`_left_by`);
+    ``row``: what the file calls a row (a bag's: a message of its topic)."""
     t, filler = np.asarray(t, float), np.asarray(filler, bool)
     dead = np.zeros(len(t), bool) if dead is None else np.asarray(dead, bool)
     _check_not_all_filler(filler, source, lines)
     gone = filler if unmeasured is None else np.asarray(unmeasured, bool)
-    lone = _lone_rows(gone)
+    lone = _lone_rows(gone, t)
     for a, last in _runs(gone | lone):
         b = last + 1
         if a > 0 and b < len(t):
@@ -796,12 +796,21 @@ def check_filler_gaps(t: np.ndarray, filler: np.ndarray, source: str, lines: np.
                           what=f"{at}IMU gap left by {left}")
 
 
-def _lone_rows(gone: np.ndarray) -> np.ndarray:
-    """(N,) bool: the rows not in ``gone`` (N,) bool whose both neighbours are: one row between two runs of rows
-    without a measurement bridges nothing (a 700 s run of NaN split by one row later refused as beyond full scale
-    was read as two runs of 350 s, each bridged, and the 700 s were refused by the run naming no line)."""
+def _lone_rows(gone: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """(N,) bool: the rows not in ``gone`` (N,) bool alone between two runs of them that leave, with it, more than
+    :data:`MAX_IMU_BRIDGE_S` between the rows around them (stamps ``t`` (N,) s): one row bridges nothing (a 700 s run
+    of NaN split by one row later refused as beyond full scale was read as two runs of 350 s, each bridged, and the
+    700 s were refused by the run naming no line). A row alone in a gap that can be bridged without it, or beside a
+    run at the file's start or end (the IMU starting later or ending earlier), ends the runs as any row: every other
+    row without a measurement for 800 s (a merged log's other sensor's rows between the IMU's, 0.1 s apart) was
+    refused as one 800 s gap, and a NaN first row before a good one hid a 700 s gap after it."""
     lone = np.zeros(len(gone), bool)
-    lone[1:-1] = ~gone[1:-1] & gone[:-2] & gone[2:]
+    runs = np.array(_runs(gone), int).reshape(-1, 2)
+    left, right = runs[:-1], runs[1:]
+    inside = (left[:, 0] > 0) & (right[:, 1] + 1 < len(gone))
+    before, after = np.maximum(left[:, 0] - 1, 0), np.minimum(right[:, 1] + 1, len(gone) - 1)
+    alone = (right[:, 0] == left[:, 1] + 2) & inside & (t[after] - t[before] > MAX_IMU_BRIDGE_S)
+    lone[left[alone, 1] + 1] = True
     return lone
 
 

@@ -189,19 +189,20 @@ def decoded_stream(topic: str, msgtype: str, header_ns: np.ndarray | None, recei
     values = message_values(rows)
     index = np.arange(len(rows))
     zeroed = _zeroed_filler(stream, header_ns, rows, label)
-    if zeroed.any() and why_not_header(header_ns[~zeroed]) is None:
+    rest = ~zeroed       # the other messages' stamps judged as below, without the messages published twice
+    if zeroed.any() and why_not_header(np.delete(header_ns[rest], _copies(stream, header_ns[rest],
+                                                                          values[rest]))) is None:
         count_refused(sub, stream, IMU_FILLER, int(zeroed.sum()))
         twice[IMU_FILLER] = (np.flatnonzero(zeroed), receive_ns[zeroed], 0.0)
-        index = np.flatnonzero(~zeroed)
+        index = np.flatnonzero(rest)
         header_ns, receive_ns, values = header_ns[index], receive_ns[index], values[index]
     if header_ns is not None and len(rows) > 2 and np.all(header_ns != 0):
-        t = (header_ns - header_ns[0]) / 1e9
-        copies, repeat = exact_copies(t, np.column_stack([t, values]))
-        if copies.size and not (stream == "imu" and repeat):
+        copies = _copies(stream, header_ns, values)
+        if copies.size:
             count_refused(sub, stream, EXACT_COPY, int(copies.size))
             twice[EXACT_COPY] = (index[copies], header_ns[copies], 0.0)
-            index = np.delete(index, copies)
-            header_ns, receive_ns, values = header_ns[index], receive_ns[index], values[index]
+            kept = np.delete(np.arange(len(index)), copies)     # positions in the messages left, not in the topic
+            index, header_ns, receive_ns, values = index[kept], header_ns[kept], receive_ns[kept], values[kept]
     t_ns, keep, how = choose_stamps(header_ns, receive_ns, sub, stream, label, clock_s)
     index, values, receive_ns = index[keep], values[keep], receive_ns[keep]
     if len(t_ns) > 2:
@@ -216,13 +217,24 @@ def decoded_stream(topic: str, msgtype: str, header_ns: np.ndarray | None, recei
                   index, twice)
 
 
+def _copies(stream: str, header_ns: np.ndarray, values: np.ndarray) -> np.ndarray:
+    """The indexes of the messages (header stamps ``header_ns`` (N,) ns, ``values`` (N,k) as
+    :func:`message_values`) repeating an earlier one exactly (:func:`~graphnav.core.screening.exact_copies`), none for
+    an IMU whose readings repeat across stamps as often (samples sharing a stamp, left to the stamps' choice)."""
+    t = (header_ns - header_ns[0]) / 1e9
+    copies, repeat = exact_copies(t, np.column_stack([t, values]))
+    return copies[:0] if stream == "imu" and repeat else copies
+
+
 def _zeroed_filler(stream: str, header_ns: np.ndarray | None, rows: list, label: str) -> np.ndarray:
     """(N,) bool: the IMU messages (``stream`` "imu") of a logger's filler whose header stamp is zeroed too
     (:func:`graphnav.core.screening.zeroed_filler`): no time, so out before the stamps are chosen, as a column map's
     rows are (21 of them put the whole topic on its receive time, 'header stamp(s) are zero'), when the other
-    messages' header stamps are sane. A topic whose every stamp is zero has no header clock, and one whose other stamps
-    are not sane (a stall, a step back) is on its receive time anyway: there the filler's stamps are there, and it is
-    refused with the other messages holding no measurement. A topic of filler only is a DataError naming ``label``."""
+    messages' header stamps are sane once the messages published twice are left out (:func:`_copies`; one such copy
+    put the topic on its receive time). A topic whose every stamp is zero has no header clock, and one whose other
+    stamps are not sane (a stall, a step back) is on its receive time anyway: there the filler's stamps are there, and
+    it is refused with the other messages holding no measurement. A topic of filler only is a DataError naming
+    ``label``."""
     if (stream != "imu" or header_ns is None or not np.any(header_ns != 0)
             or not hasattr(rows[0], "linear_acceleration")):
         return np.zeros(len(rows), bool)

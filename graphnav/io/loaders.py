@@ -285,7 +285,11 @@ def read_csv(path: str | Path, columns: tuple[str, ...], *, nan_ok: tuple[str, .
     header = [h.strip() for h in lines[0].split(",")]
     missing = [c for c in columns if c not in header]
     if missing:
-        raise DataError(f"missing column(s) {missing}; header is {header}, expected {list(columns)}",
+        # a spreadsheet set to a decimal comma separates the cells by ';' (the columns are all there)
+        other = next((d for d in (";", "\t") if [h.strip() for h in lines[0].split(d)] == list(columns)), None)
+        told = (f"; the header's cells are separated by {other!r}, an A-KIT file's by ',' (write ',' between cells and "
+                "decimal points)") if other else ""
+        raise DataError(f"missing column(s) {missing}; header is {header}, expected {list(columns)}{told}",
                         source, 1, missing[0])
     if header != list(columns):
         raise DataError(f"unexpected header {header}, expected {list(columns)}", source, 1,
@@ -483,10 +487,10 @@ def _akit_units(imu: np.ndarray, dvl: np.ndarray, gt: np.ndarray | None, lines: 
             a[:, 0] = stamps_in_seconds(a[:, 0], stream, str(files[kind]), meta, rate, field=AKIT_COLUMNS[kind][0],
                                         lines=lines[stream])
     # a row with a NaN, a logger's filler or a dead accelerometer's zeros is refused afterwards (imu_unmeasured): no
-    # measurement in any unit, the units are judged without them (a dead accelerometer was 'not gravity in m/s^2')
-    finite = np.all(np.isfinite(imu[:, 1:7]), axis=1)
-    measured = finite & np.any(imu[:, 1:4] != 0.0, axis=1)
-    rows = np.flatnonzero(measured if measured.any() else finite)
+    # measurement in any unit, the units are judged without them (a dead accelerometer was 'not gravity in m/s^2',
+    # and so was a file of them or of filler only, which the refusal names)
+    measured = np.all(np.isfinite(imu[:, 1:7]), axis=1) & np.any(imu[:, 1:4] != 0.0, axis=1)
+    rows = np.flatnonzero(measured)
     f_b, omega_b = imu_units(imu[rows, 0], imu[rows, 1:4], imu[rows, 4:7], str(files["IMU"]), meta,
                              fields=AKIT_COLUMNS["IMU"][1:7])
     imu[rows, 1:7] = np.hstack([f_b, omega_b])
@@ -1230,8 +1234,9 @@ def screen_mission(mission: Mission) -> Mission:
     are marked invalid; each counted with its reason in ``meta["streams"]`` and warned about; DVL outages are
     warned about; more than half of a stream refused is a DataError. The IMU is screened once: a reader that
     screened it (``meta["imu_screened"]``), or the rows holding no measurement (``meta["imu_unmeasured_screened"]``,
-    a bag's), is not screened for it again, nor is a mission this screened already. Returns the screened mission (the
-    same one when nothing was refused)."""
+    a bag's), is not screened for it again, nor is a mission this returned (the one passed in is not marked: screened
+    again, with its meta shared, its IMU is). Returns the screened mission (the same one when nothing was refused and
+    the IMU was screened before)."""
     meta = mission.meta
     cfg = mission.config
     for name, stream in (("imu", mission.imu), ("dvl", mission.dvl), ("depth", mission.depth), ("gt", mission.gt)):
@@ -1240,13 +1245,13 @@ def screen_mission(mission: Mission) -> Mission:
     imu, dvl, depth, gt = mission.imu, mission.dvl, mission.depth, mission.gt
     # a reader that refused the rows holding no measurement itself (a bag's, naming its messages) says so here only
     unmeasured = not meta.pop("imu_unmeasured_screened", False)
-    if not meta.get("imu_screened"):       # a loader that knows the file lines screened the IMU itself
+    screened = not meta.get("imu_screened")     # a loader that knows the file lines screened the IMU itself
+    if screened:
         # the DVL as read tells a knock, which changed its velocity, from a burst of bad samples
         bad = refuse(meta, "imu", imu_implausible(imu.t, imu.f_b, imu.omega_b, cfg, meta=meta, source=imu.source,
                                                   dvl=(dvl.t, ping_velocity_b(dvl, cfg.dvl)), unmeasured=unmeasured),
                      imu.source, t=imu.t)
         imu = _kept(meta, "imu", imu, bad)
-        meta["imu_screened"] = True         # once: a mission screened again (its meta with it) keeps its IMU
     beam_bad = beams_out_of_range(dvl.beams, dvl.valid, cfg.dvl)
     masks = {f"beam beyond {cfg.dvl.max_speed_mps:g} m/s": beam_bad.any(axis=1)}
     valid = dvl.valid & ~beam_bad
@@ -1283,9 +1288,14 @@ def screen_mission(mission: Mission) -> Mission:
         gt = _kept(meta, "gt", gt, bad)
     speed_reasons = [r for r in masks if r != NO_BOTTOM_LOCK]      # what a velocity unit changes
     check_refused_fraction(meta, advice=_declared_unit_advice(meta, imu, dvl.t, v, cfg, speed_reasons))
-    if all(a is b for a, b in zip((imu, dvl, depth, gt), (mission.imu, mission.dvl, mission.depth, mission.gt))):
+    if not screened and all(a is b for a, b in zip((imu, dvl, depth, gt),
+                                                   (mission.imu, mission.dvl, mission.depth, mission.gt))):
         return mission
-    return dataclasses.replace(mission, imu=imu, dvl=dvl, depth=depth, gt=gt)
+    # once: the mission returned keeps its IMU as screened, not the one passed in (a bag's read by load_bag, screened
+    # twice, or again with another configuration by dataclasses.replace, which shares its meta: its IMU was kept
+    # unscreened, a 500 m/s^2 row used without a word)
+    return dataclasses.replace(mission, imu=imu, dvl=dvl, depth=depth, gt=gt,
+                               meta={**meta, "imu_screened": True} if screened else meta)
 
 
 def _declared_unit_advice(meta: dict, imu, t: np.ndarray, v: np.ndarray, cfg: SensorConfig,
