@@ -130,8 +130,8 @@ def test_a_short_run_of_repeats_goes_on_in_stamp_order(records, monkeypatch):
 
 def test_an_imu_gap_of_a_fifth_of_a_second_or_less_is_held_over_by_the_alignment(records):
     """Samples refused as out of order leave holes of a few samples (0.06 s: 0.09 deg of heading, bridged): the
-    alignment keeps its data over them (restarting there left a 150 s stream without an estimate); over a longer
-    gap it starts again, and its progress names the gap."""
+    alignment keeps its data over them (restarting there left a 150 s stream without an estimate); over a gap of up to
+    2.5 s it joins the data either side, over a longer one it starts again, and its progress names the gap."""
     from graphnav.estimators.align import GAP_CARRIED_S, Aligner
     config, _ = records
     a = Aligner(config)
@@ -140,10 +140,13 @@ def test_an_imu_gap_of_a_fifth_of_a_second_or_less_is_held_over_by_the_alignment
     a.imu_gap(0.02, 0.02 + GAP_CARRIED_S)
     a.add_imu(0.02 + GAP_CARRIED_S, [0.0, 0.0, -9.8], [0.0, 0.0, 0.0])
     assert a.t_first == 0.0 and a.progress()["imu_gaps"] == ""
-    a.imu_gap(0.52, 1.53)
-    a.add_imu(1.53, [0.0, 0.0, -9.8], [0.0, 0.0, 0.0])
-    assert a.t_first == 1.53
-    assert a.progress()["imu_gaps"].startswith("the IMU gap 1.01 s after t = 0.520 s splits the data")
+    a.imu_gap(0.22, 1.23)             # joined: the alignment fits the turn across it (GAP_JOINED_S)
+    a.add_imu(1.23, [0.0, 0.0, -9.8], [0.0, 0.0, 0.0])
+    assert a.t_first == 0.0 and a.progress()["imu_gaps"] == "" and a.joined_gaps == [(0.22, 1.23)]
+    a.imu_gap(1.23, 4.24)
+    a.add_imu(4.24, [0.0, 0.0, -9.8], [0.0, 0.0, 0.0])
+    assert a.t_first == 4.24
+    assert a.progress()["imu_gaps"].startswith("the IMU gap 3.01 s after t = 1.230 s splits the data")
 
 
 def test_isolated_stamps_corrupted_days_ahead_are_refused_one_by_one_not_taken_for_a_clock_step(records):
