@@ -365,6 +365,20 @@ def test_align_mission_starts_again_after_an_imu_gap_as_the_live_aligner_does():
     assert abs(np.degrees(wrap(C_b_n_to_euler(a.C_b_n)[2] - C_b_n_to_euler(C)[2]))) < 5.0
 
 
+def test_align_mission_judges_imu_gaps_by_the_rate_the_data_show_not_the_configured_one():
+    """0.5 s of a 100 Hz IMU lost 20 s into a recorded mission whose configuration says 4 Hz: ``align_mission`` took
+    2.5 periods of the configured rate (0.625 s) as its gap limit and aligned across the gap (t_start at the start of
+    the data); now it judges by the rate the stamps show (:func:`~graphnav.core.imu_timing.imu_rate_hz`, as the
+    Navigator's keyframer judges a stream by the period it shows) and aligns after the gap."""
+    import dataclasses
+    mission = simulate_mission(250.0, "navigation", 1).slice(120.0, 245.0)
+    t0 = mission.t0
+    mission.imu = mission.imu.take(np.flatnonzero(~((mission.imu.t >= t0 + 20.0) & (mission.imu.t < t0 + 20.5))))
+    mission.config = dataclasses.replace(mission.config, imu_rate_hz=4.0)
+    a = align_mission(mission, AlignOptions(duration_s=90.0))
+    assert a.info["t_start"] == pytest.approx(t0 + 20.5)
+
+
 def _lose_imu_periodically(mission, gap_s: float, every_s: float, first_s: float = 10.0):
     """The mission with ``gap_s`` of IMU samples lost every ``every_s`` from ``first_s`` after its start (s)."""
     t = mission.imu.t - mission.t0

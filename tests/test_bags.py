@@ -657,26 +657,32 @@ def test_filler_then_a_dead_accelerometer_past_the_bridge_limit_stops_a_bag_as_a
     mission = simulate_mission(duration_s=800.0, seed=5, config=config)
     mission.imu.f_b[1000:7100] = 0.0
     mission.imu.omega_b[1000:5000] = 0.0
-    gap = (r"IMU gap left by 6100 IMU row\(s\) without a measurement \(4000 all-zero: a logger's filler; 2100 of a "
+    gap = (r"IMU gap left by 6100 {} without a measurement \(4000 all-zero: a logger's filler; 2100 of a "
            r"dead accelerometer: its three values 0 beside a live gyro\) of 610\.1 s after t = ")
-    for kind in ("csv", "bag"):
-        with pytest.raises(DataError, match=gap):
+    for kind, rows in (("csv", r"IMU row\(s\)"), ("bag", r"message\(s\) of /imu/data")):
+        with pytest.raises(DataError, match=gap.format(rows)):
             _read_both(mission, tmp_path / kind, (kind,))
 
 
 def test_a_bags_nan_run_past_the_bridge_limit_is_refused_naming_the_message_after_it(tmp_path):
     """700 s of IMU messages with a NaN (a 10 Hz IMU): the IMU stopping, as in a column map, whose error names the
     file line after the gap. The bag's named no message, only the time of the one before the gap (its warnings name
-    messages); now it names the message after it and its time, as its warnings and its stamp errors do."""
+    messages); now it names the message after it and its time, as its warnings and its stamp errors do. The run was
+    said to be '7000 IMU row(s)' (a bag has no rows): it is the topic's messages."""
     from graphnav.core.config import SensorConfig
     config = SensorConfig()
     config.imu_rate_hz = 10.0
     mission = simulate_mission(duration_s=1000.0, seed=5, config=config)
     mission.imu.f_b[2000:9000, 1] = np.nan
     path = bag_driver.write_driver_bag(mission, tmp_path / "bag", leak_sensor=False, housing_sensor=False)
-    with pytest.raises(DataError, match=r"bag:/imu/data: message 9000 \(t = 900\.000 s\): IMU gap left by 7000 IMU "
-                                        r"row\(s\) without a measurement \(NaN or infinite values\) of 700\.1 s "
-                                        r"after t = 199\.900 s"):
+    with pytest.raises(DataError, match=r"bag:/imu/data: message 9000 \(t = 900\.000 s\): IMU gap left by 7000 "
+                                        r"message\(s\) of /imu/data without a measurement \(NaN or infinite values\) "
+                                        r"of 700\.1 s after t = 199\.900 s"):
+        _load(path, None)
+    mission.imu.f_b[2000:9000], mission.imu.omega_b[2000:9000] = 0.0, 0.0
+    path = bag_driver.write_driver_bag(mission, tmp_path / "filler", leak_sensor=False, housing_sensor=False)
+    with pytest.raises(DataError, match=r"message 9000 \(t = 900\.000 s\): IMU gap left by 7000 all-zero message\(s\) "
+                                        r"of /imu/data \(a logger's filler\) of 700\.1 s"):
         _load(path, None)
 
 
@@ -690,7 +696,10 @@ def test_an_imu_mostly_without_a_measurement_is_refused_saying_what_to_check_not
     f = mission.imu.f_b.copy()
     mission.imu.f_b[:1100] = 0.0
     for kind in ("bag", "csv"):
-        with pytest.raises(DataError, match=r"1100 of 2001 imu samples refused \(1100 accelerometer all zero .*more "
+        # named by the accelerometer's fields (they were 'imu', no field of a message or column of a file)
+        with pytest.raises(DataError, match=r"field 'linear_acceleration.x, linear_acceleration.y, "
+                                            r"linear_acceleration.z': "
+                                            r"1100 of 2001 imu samples refused \(1100 accelerometer all zero .*more "
                                             r"than 50% of the stream; check the accelerometer: three values of "
                                             r"exactly 0 beside the gyro's are no measurement in any unit") as e:
             _read_both(mission, tmp_path / f"dead-{kind}", (kind,))
@@ -1312,3 +1321,83 @@ def test_a_bag_cut_mid_write_is_refused_saying_so_and_naming_the_file(sim, tmp_p
     assert cli.main(["smooth", "--data", str(cut), "--config", str(config), "--out", str(tmp_path / "out"),
                      "--no-plots"]) == 1
     assert load_mission(paths["mcap"], config).imu.t.size > 0
+
+
+def _zeroed_header_bag(mission, path, rows, stall=()):
+    """``mission`` as a driver bag with IMU header stamps, those of the messages ``rows`` written 0 (a logger's filler
+    zeroing the stamp with the values), those of ``stall`` the stamp of the message before the first of them."""
+    import unittest.mock
+
+    write = bag_driver._imu_messages
+
+    def zeroed(mission, store, *args):
+        out = write(mission, store, *args)
+        for k in rows:
+            out[k][3].header = bag_driver._header(store, 0, "imu_link")
+        for k in stall:
+            out[k][3].header = bag_driver._header(store, out[stall[0] - 1][0], "imu_link")
+        return out
+    with unittest.mock.patch.object(bag_driver, "_imu_messages", zeroed):
+        return bag_driver.write_driver_bag(mission, path, zero_imu_stamps=False, leak_sensor=False,
+                                           housing_sensor=False)
+
+
+def test_filler_messages_with_zeroed_header_stamps_are_filler_not_a_reason_for_receive_time(tmp_path):
+    """21 IMU messages of a logger's filler (0.21 s) whose header stamps are zeroed too, as a column map's rows with
+    their stamps zeroed: the topic was put on the bag's receive time ('21 header stamp(s) are zero', the recorder's
+    latency and jitter in every stamp). They are taken out as filler first, as a column map's: counted and warned
+    about as such, the topic on its header stamps, the gap they leave bridged. A topic whose every header stamp is
+    zero (no header clock), or whose header clock also stalls beside the filler, is on its receive time as before, its
+    filler refused with the other messages."""
+    mission = simulate_mission(duration_s=40.0, seed=5)
+    rows = list(range(2000, 2021))
+    mission.imu.f_b[rows], mission.imu.omega_b[rows] = 0.0, 0.0
+    m, warned = _load(_zeroed_header_bag(mission, tmp_path / "zeroed", rows), mission.config)
+    imu = m.meta["streams"]["imu"]
+    filler = "all-zero IMU row (a logger's filler: zero specific force is impossible under gravity)"
+    assert imu["refused"] == {filler: 21} and imu["read"] == len(mission.imu.t)
+    assert not [n for n in imu.get("notes", []) if "receive time" in n]
+    assert len(m.imu.t) == len(mission.imu.t) - 21 and np.all(np.any(m.imu.f_b != 0.0, axis=1))
+    assert any("/imu/data: 21 imu sample(s) refused (21 all-zero IMU row" in w and "header stamp zeroed too, "
+               "received at message 2000 (t = 20.000 s)" in w for w in warned)
+    keep = np.setdiff1d(np.arange(len(mission.imu.t)), rows)
+    np.testing.assert_allclose(m.imu.t - m.imu.t[0], mission.imu.t[keep] - mission.imu.t[0], atol=1e-6)
+    m, _ = _load(bag_driver.write_driver_bag(mission, tmp_path / "all", leak_sensor=False, housing_sensor=False),
+                 mission.config)
+    assert m.meta["streams"]["imu"]["refused"] == {filler: 21}
+    assert any("receive time" in n for n in m.meta["streams"]["imu"]["notes"])
+    # the header clock stalling on the 10 messages after the filler: on the receive time, where the filler's stamps
+    # are, so it is refused with the messages holding no measurement and leaves no gap (none warned or doubted)
+    m, warned = _load(_zeroed_header_bag(mission, tmp_path / "stall", rows, stall=range(2022, 2032)), mission.config)
+    imu = m.meta["streams"]["imu"]
+    assert imu["refused"] == {filler: 21} and len(m.imu.t) == len(mission.imu.t) - 21 and "doubted" not in imu
+    assert any("receive time" in n for n in imu["notes"]) and not any("in the stamps" in w for w in warned)
+
+
+def test_a_bag_loaded_then_screened_has_its_imu_screened_once(tmp_path, monkeypatch):
+    """A bag read by ``load_bag`` (its IMU messages holding no measurement refused at read) and then screened by
+    ``screen_mission``: each rule runs once. Screened a second time (the mission and its meta passed on), its IMU was
+    screened again, the gap check and the full-scale and spike rules run twice on rows already screened. Now a mission
+    screened once keeps its IMU as screened."""
+    from graphnav.core import screening
+    from graphnav.io import loaders
+    calls = {"gaps": 0, "plausible": 0}
+    gaps, plausible = screening.check_filler_gaps, loaders.imu_implausible
+    monkeypatch.setattr(screening, "check_filler_gaps", lambda *a, **k: calls.update(gaps=calls["gaps"] + 1) or
+                        gaps(*a, **k))
+    monkeypatch.setattr(loaders, "imu_implausible", lambda *a, **k: calls.update(plausible=calls["plausible"] + 1) or
+                        plausible(*a, **k))
+    mission = simulate_mission(duration_s=20.0, seed=5)
+    mission.imu.f_b[[300, 900]] = 0.0
+    mission.imu.f_b[1200, 0] = 500.0
+    path = bag_driver.write_driver_bag(mission, tmp_path / "bag", leak_sensor=False, housing_sensor=False)
+    with pytest.warns(RuntimeWarning):
+        m = bags.load_bag(path, mission.config)
+        assert calls == {"gaps": 1, "plausible": 0}
+        m = loaders.screen_mission(m)
+    assert calls == {"gaps": 1, "plausible": 1}
+    refused = dict(m.meta["streams"]["imu"]["refused"])
+    assert refused == {screening.ACCEL_ZERO: 2, "f_b beyond 156.906 m/s^2": 1} and len(m.imu.t) == 1998
+    again = loaders.screen_mission(m)
+    assert calls == {"gaps": 1, "plausible": 1}
+    assert again.meta["streams"]["imu"]["refused"] == refused and len(again.imu.t) == 1998

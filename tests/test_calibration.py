@@ -285,3 +285,21 @@ def test_the_positions_are_labelled_with_the_point_they_are_measured_from(missio
     assert "DVL lever arm vs IMU point: [" in combine([r, r], ["a", "b"]).report()
     assert incompatibility(r, as_recorded).startswith("gt_point_b: lever arm measured from the point GT point, not "
                                                       "IMU point [-1.86, -0.04, 0.2] m from the GT")
+
+
+def test_a_dvl_too_short_for_the_gt_fit_is_refused_naming_its_file():
+    """A simulated 60 s mission whose DVL file holds its first 15 pings only: the GT calibration refused it as 'dvl:
+    fewer than 20 DVL pings overlap the ground truth', naming no file. It names the DVL's file and its stamp field,
+    how many pings overlap of those usable and the span they must lie in."""
+    import warnings
+
+    from graphnav.calibration.calibrate import calibrate_with_gt
+    from graphnav.core.errors import DataError
+    m = simulate_mission(duration_s=60.0, seed=3)
+    m = dataclasses.replace(m, dvl=dataclasses.replace(m.dvl.take(np.arange(15)), source="logs/dvl.csv"))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        with pytest.raises(DataError, match=r"^logs/dvl\.csv, field 't': \d+ of the \d+ usable DVL pings overlap the "
+                                            r"ground truth and the IMU \(\[0\.000, 60\.000\] s\) at every time offset "
+                                            r"searched \(-3 to \+3 s\): the DVL fit needs 20$"):
+            calibrate_with_gt(m)

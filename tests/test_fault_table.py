@@ -158,7 +158,8 @@ def test_the_bag_cases_are_damaged_as_stated_and_read_with_their_repair(ws, tmp_
     assert [w for w in said if "all header stamps are zero" in w]
     np.testing.assert_allclose(m.dvl.t, clean.dvl.t, atol=2e-9)
     for name, said_as in (("bag: DVL header clock steps +5 s at 60 s, pings keep arriving", "moved back by 5.000 s"),
-                          ("bag: DVL header clock 5 s behind until set right at 60 s", "the clock is set right")):
+                          ("bag: DVL header clock 5 s behind until set right at 60 s",
+                           "the header clock is set right")):
         m, said = read(name)
         np.testing.assert_allclose(m.dvl.t, clean.dvl.t, atol=2e-9)
         assert [w for w in said if "/dvl/data, message 60" in w and said_as in w], said

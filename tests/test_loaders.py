@@ -1505,3 +1505,29 @@ def test_all_zero_imu_rows_of_an_akit_folder_are_refused_before_its_units_and_cl
     said = [str(w.message) for w in caught if "all-zero IMU row" in str(w.message)]
     assert len(said) == 1 and said[0].startswith(f"{paths['IMU']}: 51 imu sample(s) refused (51 {filler}) at "
                                                  "line(s) 702, 2002, 2003")
+
+
+def test_an_akit_file_with_a_decimal_comma_is_told_so_not_too_many_fields(tmp_path):
+    """An A-KIT IMU file with one value written "0,5" (quoted, as a spreadsheet exports a decimal comma) was refused as
+    'too many fields: 8 fields, expected 7' (its comma split by hand), and so was 0,5 unquoted. The quoted cell is one
+    field, refused as a decimal comma with what to write, as a column map's is; the unquoted one is still too many
+    fields, said to be likely a decimal comma."""
+    from graphnav.io.loaders import AKIT_COLUMNS, read_csv
+    header = ",".join(AKIT_COLUMNS["IMU"])
+    rows = [f"{0.01 * k:.2f},0.1,0.2,-9.8,0.01,0.02,0.03" for k in range(5)]
+    for cell, said in (('"0,5"', r"line 4, field 'ACC Y \[m/s\^2\]': not a number: '0,5', a decimal comma in a quoted "
+                                 r"cell of a ','-separated file \(write decimal points: an A-KIT file's separator is "
+                                 r"','\)"),
+                       ("0,5", r"line 4, field 'GYRO Z \[rad/s\]': too many fields: 8 fields, expected 7; likely a "
+                               r"decimal comma \(write decimal points")):
+        lines = list(rows)
+        lines[2] = lines[2].replace(",0.2,", f",{cell},")
+        path = tmp_path / "IMU_trajectory1.csv"
+        path.write_text("\n".join([header, *lines]) + "\n")
+        with pytest.raises(DataError, match=said):
+            read_csv(path, AKIT_COLUMNS["IMU"])
+    lines = list(rows)
+    lines[2] = lines[2].replace(",0.2,", ',"0.2",')          # quoted without a comma: named as before
+    path.write_text("\n".join([header, *lines]) + "\n")
+    with pytest.raises(DataError, match=r"line 4, field 'ACC Y \[m/s\^2\]': not a number: '\"0\.2\"'"):
+        read_csv(path, AKIT_COLUMNS["IMU"])

@@ -644,22 +644,23 @@ def test_two_ensembles_swapped_across_a_roll_over_without_the_high_byte_are_sort
 def test_ensembles_sharing_a_time_load_beside_an_imu_spread_within_their_clock_tick(sim, tmp_path):
     """A DVL pinging at 1 Hz whose clock repeats each time for 2 s (two ensembles per time) reads alone at its
     recorded times, and beside an IMU loads (it was refused: "time stamp duplicated") with the second ping of each
-    time spread within the second a clock of whole seconds vouches for, warned about and counted as doubted; the
-    first of each keeps its time."""
+    time spread within the 2 s tick of a clock whose times step by 2 s (1 s after it, its time; it was put 0.5 s
+    after, within the second a clock of whole seconds vouches for), warned about and counted as doubted; the first
+    of each keeps its time."""
     spread_key = "ensemble time shared with the ping before (stamp spread after it)"       # pd0.SPREAD_TIME
     mission, _ = sim
     t_s = 2.0 * np.floor(mission.dvl.t / 2.0)
     assert np.all(t_s[:-1:2] == t_s[1::2])
     m, rec = _load_written_pd0(sim, tmp_path, t_s=t_s)
     n = len(m.dvl.t)                                                 # dolfyn leaves the last ensemble
-    expected = t_s[:n] + np.where(np.arange(n) % 2, 0.5, 0.0)         # the mission's stamps start at its first
+    expected = t_s[:n] + np.where(np.arange(n) % 2, 1.0, 0.0)         # the mission's stamps start at its first
     np.testing.assert_allclose(m.dvl.t - m.dvl.t[0], expected, atol=1e-6)
     dvl = m.meta["streams"]["dvl"]
     assert dvl["doubted"] == {spread_key: n // 2}
     said = [str(w.message) for w in rec if "share their ensemble's time" in str(w.message)]
     assert said == [f"{tmp_path / 'dvl.000'}: {n // 2} of {n} ping(s) share their ensemble's time (the variable "
                     "leader's clock) with the ping before (a clock that ticks slower than the instrument pings, or "
-                    "repeats a time): spread after it in ensemble order within the clock's tick, at most 0.500 s "
+                    "repeats a time): spread after it in ensemble order within the clock's tick, at most 1.000 s "
                     f"after the time recorded, first ensemble 2 (byte {len(_ensembles_of(tmp_path / 'dvl.000')[0])}) "
                     "at 2024-05-01 12:00:00.00; the DVL's own clock cannot tell these times better"]
     assert said[0].split(": ", 1)[1] in dvl["notes"]

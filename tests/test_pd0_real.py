@@ -429,3 +429,147 @@ def test_two_instruments_that_dolfyn_reads_as_one_are_refused_naming_where_the_s
                 f"file; load each from a file of its own (the bytes before {size} and from {size} on); a DVL log is "
                 "one instrument's")):
             read_dvl(tmp_path / "joined.PD0")
+
+
+def _retimed(src, seconds) -> list[bytearray]:
+    """The ensembles of ``src`` (in file order) with their clocks (the variable leader's RTC, and its Y2K copy where
+    the firmware keeps one) set to ``seconds`` (Unix s, to the hundredth) and their checksums made good again."""
+    import datetime as dt
+    raw, scan = src.read_bytes(), pd0.scan_pd0(src)
+    parts = [bytearray(raw[a:b]) for a, b in scan.spans]
+    for ens, when in zip(parts, seconds):
+        offsets = struct.unpack_from(f"<{ens[5]}H", ens, 6)
+        leader = next(o for o in offsets if struct.unpack_from("<H", ens, o)[0] == 0x0080)
+        at = dt.datetime.fromtimestamp(round(float(when), 2), dt.timezone.utc)
+        clock = bytes([at.year % 100, at.month, at.day, at.hour, at.minute, at.second, at.microsecond // 10000])
+        if ens[leader + 58:leader + 65] == ens[leader + 4:leader + 11]:
+            ens[leader + 57], ens[leader + 58:leader + 65] = at.year // 100, clock
+        ens[leader + 4:leader + 11] = clock
+        struct.pack_into("<H", ens, len(ens) - 2, sum(ens[:-2]) & 0xFFFF)
+    return parts
+
+
+def _clock(src) -> np.ndarray:
+    """The clock of each ensemble of ``src`` in file order (Unix s)."""
+    raw = src.read_bytes()
+    return np.array([pd0._leader(raw, a)[1] for a, _ in pd0.scan_pd0(src).spans])
+
+
+def _read_for_a_mission(path):
+    """``pd0.read_pd0(path)``'s DVL stream, its metadata and the messages of the warnings it gave."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        dvl, _, meta = pd0.read_pd0(path)
+    return dvl, meta, [str(w.message) for w in caught]
+
+
+def test_a_dvl_clock_that_stops_is_dead_reckoned_at_the_ping_period_not_squeezed(pd0_dir, tmp_path):
+    """winriver01.PD0 (262 pings 1.3 s apart) whose clock gives its first 100 pings the first one's time, ticks once
+    to the 101st's and stops there: the 161 pings read after the tick are dead-reckoned at the ping period its stall
+    ended in (1.30 s), 338 s and 648 m of track as the clean file's 339 s and 650 m, said to be a clock that stood
+    still. They were squeezed into the 130 s of the tick (259 s and 499 m of track), warned about only as times
+    shared within the clock's tick."""
+    src = pd0_dir / "winriver01.PD0"
+    true = _clock(src)
+    path = tmp_path / src.name
+    path.write_bytes(b"".join(_retimed(src, np.where(np.arange(len(true)) < 100, true[0], true[100]))))
+    dvl, meta, said = _read_for_a_mission(path)
+    n = len(dvl.t)
+    np.testing.assert_allclose(dvl.t, true[:n], rtol=0, atol=1.3)
+    assert dvl.t[-1] - dvl.t[0] > 338.0
+    assert meta["streams"]["dvl"]["doubted"] == {pd0.STALLED_TIME: n - 2}
+    note = [s for s in said if "stood still" in s]
+    assert len(note) == 1 and ("after its last time (2017-04-05 08:11:28.81) it never ran on: those 161 pings are "
+                               "dead-reckoned at the ping period (1.301 s, what its stalls ended in)") in note[0]
+
+
+def test_a_dvl_clock_stalled_across_the_pause_between_bursts_puts_the_next_burst_after_it(pd0_dir, tmp_path):
+    """winriver01.PD0 retimed to bursts of 10 pings every 30 s, its clock standing still from the 8th ping of the 6th
+    burst to the 1st of the 7th (4 pings at one time, then on): the 7th burst's first ping is put the ping period
+    before the time the clock jumped to, within 0.05 s of its time. It was put on from the stalled time at the ping
+    period, 17 s early (before the pause)."""
+    src = pd0_dir / "winriver01.PD0"
+    clean = _clock(src)
+    k = np.arange(len(clean))
+    true = clean[0] + 30.0 * (k // 10) + clean - clean[k // 10 * 10]
+    path = tmp_path / src.name
+    path.write_bytes(b"".join(_retimed(src, np.where((k >= 57) & (k <= 60), true[57], true))))
+    dvl, meta, said = _read_for_a_mission(path)
+    np.testing.assert_allclose(dvl.t, true[:len(dvl.t)], rtol=0, atol=0.05)
+    assert meta["streams"]["dvl"]["doubted"] == {pd0.STALLED_TIME: 3}
+    assert [s for s in said if "1 of them after the pause between bursts it stood still across" in s]
+
+
+def test_a_clock_of_whole_seconds_ticking_every_2_s_spreads_1_hz_pings_a_second_apart(pd0_dir, tmp_path):
+    """winriver01.PD0 retimed to 1 Hz pings on a clock that ticks every 2 s (DOS time, whole even seconds; two pings
+    per time): the second ping of each time is put 1 s after it, on its time, not 0.5 s (the cap of a clock of whole
+    seconds). A clock of whole seconds in bursts every 10 s keeps the second (the synthetic bursts test)."""
+    src = pd0_dir / "winriver01.PD0"
+    true = 2.0 * np.round(_clock(src)[0] / 2.0) + np.arange(262.0)
+    path = tmp_path / src.name
+    path.write_bytes(b"".join(_retimed(src, 2.0 * np.floor(true / 2.0))))
+    dvl, meta, said = _read_for_a_mission(path)
+    np.testing.assert_allclose(dvl.t, true[:len(dvl.t)], rtol=0, atol=1e-6)
+    assert meta["streams"]["dvl"]["doubted"] == {pd0.SPREAD_TIME: 130}
+    assert [s for s in said if "at most 1.000 s after the time recorded" in s]
+
+
+@pytest.mark.parametrize("second", ["3 days later", "an hour earlier", "clock restarted at 2000-01-01"])
+def test_a_second_recording_joined_without_a_cut_is_named_not_read_as_one_recording(pd0_dir, tmp_path, second):
+    """winriver01.PD0 with itself joined behind, retimed 3 days later, an hour earlier or to a clock restarted at
+    2000-01-01 (the ensemble numbers start again at 224): days later it is read as one log with a gap, warned naming
+    where the second recording begins and counted; a clock that runs back is refused naming the byte to cut at. All
+    were read as one recording without a word (days later, a gap) or sorted second-first "with which their ensemble
+    numbers agree"."""
+    src = pd0_dir / "winriver01.PD0"
+    raw, spans, clock = src.read_bytes(), pd0.scan_pd0(src).spans, _clock(src)
+    retimed = {"3 days later": clock + 3 * 86400.0, "an hour earlier": clock - 3600.0,
+               "clock restarted at 2000-01-01": 946684800.0 + clock - clock[0]}[second]
+    path = tmp_path / src.name
+    path.write_bytes(raw + b"".join(_retimed(src, retimed)))
+    where = f"ensemble 224 (byte {len(raw)}) after ensemble 485 (byte {spans[-1][0]}) starts the ensemble numbers again"
+    if second == "3 days later":
+        log, said = _read_warned(path)
+        assert [s for s in said if "recording(s) joined" in s] == [
+            f"{path}: 1 recording(s) joined behind another without a cut: {where} 3.0 day(s) later; read as one log "
+            f"with a gap of no pings there (to load one recording, cut the file at byte {len(raw)})"]
+        assert log.counts[pd0.JOINED_RECORDING] == 1 and pd0.JOINED_RECORDING not in log.refused()
+        assert len(log.t) == 2 * len(spans) - 1
+        return
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        with pytest.raises(DataError, match=re.escape(where) + r" and its clock is \d+\.\d\d s before: a second "
+                           r"recording joined behind the first without a cut .*" + re.escape(
+                               f"load each recording from a file of its own (the bytes before {len(raw)} and from "
+                               f"{len(raw)} on)")):
+            read_dvl(path)
+
+
+def test_bytes_before_a_cut_last_ensemble_at_the_end_and_a_header_written_again_are_counted(pd0_dir, tmp_path):
+    """Bytes that are no ensemble, each read as the clean file: a logger's tag between RDI_withBT.000's last whole
+    ensemble and the one the file ends in (cut), a CR LF at the end of winriver01.PD0, and the header of
+    winriver01.PD0's 101st ensemble written again before it. They are counted and warned about (bytes between
+    ensembles, bytes after the last one). The first two were not counted (and the tag cost dolfyn the last whole
+    ensemble), the header was counted and warned about as a corrupt ensemble."""
+    cut, winriver = pd0_dir / "RDI_withBT.000", pd0_dir / "winriver01.PD0"
+    raw, end = cut.read_bytes(), pd0.scan_pd0(cut).spans[-1][1]
+    tagged = tmp_path / "tagged" / cut.name
+    tagged.parent.mkdir()
+    tagged.write_bytes(raw[:end] + b"\r\n$TAG\r\n" + raw[end:])
+    raw, spans = winriver.read_bytes(), pd0.scan_pd0(winriver).spans
+    ended = tmp_path / "ended" / winriver.name
+    ended.parent.mkdir()
+    ended.write_bytes(raw + b"\r\n")
+    a = spans[100][0]
+    header = tmp_path / "header" / winriver.name
+    header.parent.mkdir()
+    header.write_bytes(raw[:a] + raw[a:a + 6 + 2 * raw[a + 5]] + raw[a:])
+    for path, src, key, n in ((tagged, cut, pd0.STRAY_BYTES, 8), (ended, winriver, pd0.TRAILING_BYTES, 2),
+                              (header, winriver, pd0.STRAY_BYTES, 20)):
+        clean = _read(src)
+        log, said = _read_warned(path)
+        assert log.counts == {**clean.counts, key: n}
+        assert not [s for s in said if "corrupt" in s]
+        assert [s for s in said if f"{n} byte(s)" in s]
+        np.testing.assert_array_equal(log.t, clean.t)
+        np.testing.assert_array_equal(log.v_d, clean.v_d)

@@ -3135,6 +3135,16 @@ def test_an_imu_almost_all_filler_is_refused_naming_the_file_and_the_share(akit_
         load_akit(folder)
 
 
+def _700_s_later(values):
+    """An edit of Trajectory1's IMU lines (header first) putting its rows after t = 199.995 s 700 s later, with 699
+    rows at 1 Hz between: their six cells ``values(k)`` (text) for the k-th (1 to 699)."""
+    def edit(lines):
+        head, tail = lines[:20001], lines[20001:]
+        gap = [f"{199.995 + k!r},{values(k)}" for k in range(1, 700)]
+        return head + gap + [f"{float(line.split(',')[0]) + 700.0!r},{line.split(',', 1)[1]}" for line in tail]
+    return edit
+
+
 def test_an_imu_gap_of_filler_and_dead_accelerometer_rows_names_each_kind_not_nan(akit_dir, tmp_path):
     """Trajectory1 as a column map with 700 s at 1 Hz inside it of 349 all-zero filler rows then 350 rows of a dead
     accelerometer (0, 0, 0 beside a live gyro): refused as the IMU stopping, but the message said '349 all-zero: a
@@ -3144,10 +3154,7 @@ def test_an_imu_gap_of_filler_and_dead_accelerometer_rows_names_each_kind_not_na
     from graphnav.missions import load_mission
     from tests.test_generic_csv import _akit_as_column_map
 
-    def later(lines):
-        head, tail = lines[:20001], lines[20001:]
-        gap = [f"{199.995 + k!r},{'0,0,0,0,0,0' if k < 350 else '0,0,0,0.01,0.02,0.03'}" for k in range(1, 700)]
-        return head + gap + [f"{float(line.split(',')[0]) + 700.0!r},{line.split(',', 1)[1]}" for line in tail]
+    later = _700_s_later(lambda k: "0,0,0,0,0,0" if k < 350 else "0,0,0,0.01,0.02,0.03")
     data, config = _akit_as_column_map(akit_dir, tmp_path / "dead", imu_edit=later)
     with pytest.raises(DataError, match=r"imu\.csv, line 20701: IMU gap left by 699 IMU row\(s\) without a measurement "
                                         r"\(349 all-zero: a logger's filler; 350 of a dead accelerometer: its three "
@@ -3213,3 +3220,76 @@ def test_a_dead_accelerometer_beside_a_live_gyro_is_refused_and_counted_a_quanti
     assert np.flatnonzero(masks[IMU_FILLER]).tolist() == [2600]
     refused = np.any([m for m in masks.values()], axis=0)
     assert not refused[2000:2500].any() and refused.sum() == 501
+
+
+def test_a_nan_run_split_by_one_row_beyond_full_scale_is_one_gap_naming_its_line(akit_dir, tmp_path):
+    """Trajectory1 as a column map with 700 s at 1 Hz inside it of NaN rows but one, 350 s in, beyond full scale
+    (900 m/s^2): read as two runs of 350 s, each bridged, and the row then refused for its range; the 700 s gap was
+    refused only by the run (``smooth``), naming the file and the field 't' but no line. A lone row between two runs
+    without a measurement bridges nothing: the gap is the IMU stopping, named by the line after it, at read."""
+    from graphnav.core.screening import imu_unmeasured
+    from graphnav.missions import load_mission
+    from tests.test_generic_csv import _akit_as_column_map
+
+    later = _700_s_later(lambda k: "900,0,-9.8,0,0,0" if k == 350 else ",".join(["nan"] * 6))
+    data, config = _akit_as_column_map(akit_dir, tmp_path / "lone", imu_edit=later)
+    with pytest.raises(DataError, match=r"imu\.csv, line 20701: IMU gap left by 699 IMU row\(s\) without a "
+                                        r"measurement \(NaN or infinite values; 1 alone between them, which bridges "
+                                        r"nothing\) of 700\.01 s after t = 199\.995 s is longer than the 600 s"):
+        _quiet_load(load_mission, data, config)
+    # two rows between the runs are two samples: each run bridged alone, as before
+    t = np.arange(10.0) * 100.0
+    f_b, omega_b = np.tile([0.1, 0.0, -9.8], (10, 1)), np.full((10, 3), 0.01)
+    f_b[[1, 2, 3, 6, 7]] = np.nan
+    assert imu_unmeasured(t, f_b, omega_b, source="imu.csv")["empty or NaN in 'f_b x'"].sum() == 5
+    f_b[5] = np.nan                         # row 4 alone between rows 1-3 and 5-7: 800 s
+    with pytest.raises(DataError, match=r"line 10: IMU gap left by 7 IMU row\(s\) .*1 alone between them.* of 800 s"):
+        imu_unmeasured(t, f_b, omega_b, source="imu.csv", lines=np.arange(10) + 2)
+
+
+def test_an_imu_refused_for_a_dead_accelerometer_names_its_columns_not_the_stream(akit_dir, tmp_path):
+    """Trajectory1 as a column map and as an A-KIT folder with the accelerometer's three values 0 beside a live gyro
+    on 60 % of the rows: the column map was refused as more than half of the IMU, naming the field 'imu' (no column
+    of the file is called so), the A-KIT folder for its units ('median |f_b| = 0: not gravity in m/s^2'), though
+    zeros are so in any unit. Both are refused as more than half of the IMU, naming the accelerometer's columns."""
+    from graphnav.missions import load_akit, load_mission
+    from tests.test_generic_csv import _akit_as_column_map
+
+    def dead(lines):
+        return lines[:1] + [line.split(",")[0] + ",0,0,0," + ",".join(line.split(",")[4:]) if 0 < i <= 24000
+                            else line for i, line in enumerate(lines[1:], 1)]
+    columns = r"field 'ACC X \[m/s\^2\], ACC Y \[m/s\^2\], ACC Z \[m/s\^2\]': 24000 of 40000 imu samples refused"
+    data, config = _akit_as_column_map(akit_dir, tmp_path / "map", imu_edit=dead)
+    with pytest.raises(DataError, match=rf"map/imu\.csv, {columns}"):
+        _quiet_load(load_mission, data, config)
+    folder = _copy_trajectory(akit_dir, tmp_path)
+    _edit_lines(folder / "IMU_trajectory1.csv", dead)
+    with pytest.raises(DataError, match=rf"IMU_trajectory1\.csv, {columns}"):
+        _quiet_load(load_akit, folder)
+
+
+def test_an_imu_stall_beside_filler_rows_is_refused_as_a_stall_and_the_filler_as_filler(akit_dir, tmp_path):
+    """Trajectory1 as a column map with 50 rows of a logger's filler (0.5 s at t = 100 s, stamps kept or zeroed) right
+    after 60 rows (0.6 s) repeating one reading (a stalled sensor): each is refused under its own reason (the filler's
+    repeats are not a stall, the stall's rows are measurements), and the rest reads as it does without them."""
+    from graphnav.core.screening import IMU_FILLER, IMU_STALLED
+    from graphnav.missions import load_mission
+    from tests.test_generic_csv import _akit_as_column_map
+
+    def stalled(stamps):
+        def edit(lines):
+            lines = _zero_imu_rows(range(10000, 10050), stamps)(lines)
+            for i in range(9940, 10000):
+                lines[i + 1] = lines[i + 1].split(",")[0] + "," + lines[9940].split(",", 1)[1]
+            return lines
+        return edit
+    kept = {}
+    for stamps in (True, False):
+        data, config = _akit_as_column_map(akit_dir, tmp_path / f"stall{stamps}", imu_edit=stalled(stamps))
+        m, said = _quiet_load(load_mission, data, config)
+        imu = m.meta["streams"]["imu"]
+        assert (imu["read"], imu["used"], imu["refused"]) == (40000, 39890, {IMU_FILLER: 50, IMU_STALLED: 60})
+        assert any("60 imu sample(s) refused (60 stalled" in w and "line(s) 9942, 9943" in w for w in said)
+        kept[stamps] = m.imu
+    np.testing.assert_array_equal(kept[True].t, kept[False].t)
+    np.testing.assert_array_equal(kept[True].f_b, kept[False].f_b)

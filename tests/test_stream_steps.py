@@ -265,3 +265,61 @@ def test_a_stall_just_after_an_imu_gap_is_not_said_to_be_in_the_streams_first_se
     untold = [w for w in said if "the reading at t = 155.000 s is repeated" in w]
     assert len(untold) == 1 and "right after an IMU gap" in untold[0] and "first 1 s" not in untold[0], said
     assert nav.doubted["imu"]
+
+
+def test_a_first_record_days_ahead_of_the_stream_after_it_is_not_trusted_over_it(records):
+    """The first record stamped on Unix time (1.7e9 s), every later one from 0 (seconds since boot): no stamp was
+    refused, and the run ended with "IMU data cover 200.0 s of the 300 s needed" (on 400 s of data, 401 estimates
+    without a word). A stamp days behind
+    the stream is as far off its clock as one days ahead: the samples after it are refused as such until a second of
+    IMU samples confirmed the clock went back, then the stream starts over on it, the first record refused, as a
+    first record days behind the rest is: 200 of the clean run's 201 estimates, metres from them."""
+    config, recs = records
+    late = [dict(recs[0], t=recs[0]["t"] + 1.7e9)] + recs[1:]
+    _, clean, _ = _run(config, recs)
+    nav, out, said = _run(config, late)
+    assert any("the clock jumped 1.7e+09 s back at t = 1700000000.000 s, first on the dvl stream" in w
+               and "after only 1 depth sample(s): those are refused" in w and "starts over on that clock" in w
+               for w in said), said
+    assert any("imu sample at t = 0.000000 s refused, field 't': stamp jumps 1.7e+09 s behind the stream" in w
+               for w in said), said
+    assert nav.refused == {"depth": {"t": 10}, "dvl": {"t": 1}, "imu": {"t": 100}}, nav.refused
+    at = {round(e.t, 3): e for e in clean}
+    assert len(out) == 200 and out[0].t >= 1.0
+    assert max(np.linalg.norm(e.p_n[:2] - at[round(e.t, 3)].p_n[:2]) for e in out) < 5.0
+
+
+@pytest.mark.parametrize("stream, count", [("imu", 3), ("dvl", 1)])
+def test_first_samples_stamped_0_among_unix_stamps_are_refused_one_by_one(records, stream, count):
+    """Every record on Unix time but the first ``count`` of one stream, stamped 0 (a driver that stamped before its
+    clock was set) after the other streams' first records: the IMU's first was taken and the two after it refused as
+    a "duplicate stamp", the DVL's ping was taken without a word. Each is now refused alone as days behind the
+    stream, named and counted, and the run navigates on the rest: every estimate of the clean run, metres from it."""
+    config, recs = records
+    t0 = 1.7e9
+    late = [dict(r, t=r["t"] + t0) for r in recs]
+    first = [i for i, r in enumerate(late) if r["type"] == stream][:count]
+    for i in first:
+        late[i] = dict(late[i], t=0.0)
+    assert min(first) > 0
+    _, clean, _ = _run(config, recs)
+    nav, out, said = _run(config, late)
+    assert any(f"{stream} sample at t = 0.000000 s refused, field 't': stamp jumps 1.7e+09 s behind the stream" in w
+               for w in said), said
+    assert nav.refused == {stream: {"t": count}}, nav.refused
+    assert not any("gap" in w for w in said), said
+    at = {round(e.t): e for e in clean}     # the IMU's first three lost, its keyframes come 0.03 s later
+    assert len(out) == len(clean)
+    assert max(np.linalg.norm(e.p_n[:2] - at[round(e.t - t0)].p_n[:2]) for e in out) < 5.0
+
+
+def test_a_clock_step_of_days_back_is_refused_naming_the_jump_as_one_ahead_is(records):
+    """Every stream stepped 2 days back at 140 s: the 6001 IMU samples after it were refused as "out of order"
+    (older than what had left the reorder buffer), and the run ended with the 140 estimates before it and no error.
+    Now the step is named as a forward one is, which way it went, once the IMU has been 1 s past it."""
+    config, recs = records
+    with pytest.raises(DataError) as err:
+        _run(config, _stepped(recs, -2 * 86400.0))
+    text = str(err.value)
+    assert "the clock jumped 172800 s back at t = 139.990 s, first on the depth stream" in text, text
+    assert "100 of 14100 imu samples refused after it" in text and "split the stream there" in text

@@ -60,7 +60,7 @@ def calibrate_with_gt(mission: Mission, min_depth_m: float = 2.0) -> Calibration
                     cfg0.gravity_mps2, cfg0.lat_rad if cfg0.earth_rotation else None, cfg0.dvl)
     v_dvl, usable = dvl_velocity(work)
     usable &= submerged_pings(work, min_depth_m) if work.depth is not None else True
-    fit, off_sigma = calibrate_dvl_with_gt(ref, work.dvl.t, v_dvl, usable)
+    fit, off_sigma = calibrate_dvl_with_gt(ref, work.dvl.t, v_dvl, usable, source=work.dvl.source or mission.name)
     sig = np.sqrt(np.diag(fit.cov))
     th = fit.theta
     cfg = SensorConfig.from_dict(cfg0.to_dict())

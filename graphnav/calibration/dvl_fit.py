@@ -238,13 +238,24 @@ def fit_dvl(reference: Reference, t_raw: np.ndarray, v_dvl: np.ndarray, offset_s
     return DvlFit(offset_s, theta, cov, float(np.sqrt(sse / len(e))), int(use.sum()), sse)
 
 
+#: Fewest DVL pings the fit of :func:`calibrate_dvl_with_gt` takes: six parameters and an offset from three axes each.
+MIN_FIT_PINGS = 20
+
+
 def calibrate_dvl_with_gt(reference: Reference, t_raw: np.ndarray, v_dvl: np.ndarray, use: np.ndarray,
-                          search_s: tuple[float, float] = (-3.0, 3.0), step_s: float = 0.1
+                          search_s: tuple[float, float] = (-3.0, 3.0), step_s: float = 0.1, source: str = "dvl"
                           ) -> tuple[DvlFit, float]:
-    """Profile the DVL fit over candidate offsets; returns (exact fit at the best offset, offset sigma)."""
+    """Profile the DVL fit over candidate offsets; returns (exact fit at the best offset, offset sigma). Fewer than
+    :data:`MIN_FIT_PINGS` usable pings (``use``) inside the reference's span at every offset searched is a DataError
+    naming the DVL's file ``source``, the pings and the span."""
+    usable = int(use.sum())
     use = use & reference.covers(t_raw + search_s[0]) & reference.covers(t_raw + search_s[1])
-    if use.sum() < 20:
-        raise DataError("fewer than 20 DVL pings overlap the ground truth", "dvl")
+    if use.sum() < MIN_FIT_PINGS:
+        lo = max(reference.t_ref[0], reference.t_imu[0])
+        hi = min(reference.t_ref[-1], reference.t_imu[-1])
+        raise DataError(f"{int(use.sum())} of the {usable} usable DVL pings overlap the ground truth and the IMU "
+                        f"([{lo:.3f}, {hi:.3f}] s) at every time offset searched ({search_s[0]:+g} to "
+                        f"{search_s[1]:+g} s): the DVL fit needs {MIN_FIT_PINGS}", source, field="t")
 
     def cost(offset):
         return fit_dvl(reference, t_raw, v_dvl, offset, use).sse

@@ -18,7 +18,8 @@ COUNT_NOTES = ("read", "valid", "beams recovered", "ensembles in file", "bad pre
                "ensemble written twice (copy left out)", "ensemble stored out of time order (sorted)",
                "cut ensemble at the end of the file (left out)",
                "byte(s) before the first ensemble (skipped)", "byte(s) between ensembles (skipped)",
-               "ensemble cut short by the next one (left out)")
+               "ensemble cut short by the next one (left out)", "byte(s) after the last ensemble (skipped)",
+               "recording joined behind another (numbers start again)")
 
 
 @dataclass

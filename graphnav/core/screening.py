@@ -184,15 +184,23 @@ def stamp_problem(t, previous: float | None = None) -> str | None:
     if abs(t) > MAX_STAMP_S:
         return (f"stamp {t:.6g} s is beyond {MAX_STAMP_S:g} s (micro/nanoseconds read as seconds, or a "
                 "corrupted stamp)")
-    return None if previous is None else stamp_jumps_ahead(t, previous)
+    return None if previous is None else stamp_jumps(t, previous)
 
 
-def stamp_jumps_ahead(t: float, previous: float) -> str | None:
-    """Why the stamp t (s, a number within :data:`MAX_STAMP_S`) jumps too far ahead of ``previous`` (the newest stamp
-    of its stream, s): more than :data:`MAX_STAMP_GAP_S` (years: a clock reset or a corrupted stamp), or None."""
-    if math.isfinite(previous) and t - previous > MAX_STAMP_GAP_S:
-        return f"stamp jumps {t - previous:.6g} s ahead of the stream (more than {MAX_STAMP_GAP_S:g} s)"
+def stamp_jumps(t: float, previous: float) -> str | None:
+    """Why the stamp t (s, a number within :data:`MAX_STAMP_S`) is too far from ``previous`` (the newest stamp of its
+    stream, s), ahead of it or behind it: more than :data:`MAX_STAMP_GAP_S` (days to years: a clock reset or a
+    corrupted stamp; a stamp days in the past is as far off its stream's clock as one days ahead), or None."""
+    if math.isfinite(previous) and abs(t - previous) > MAX_STAMP_GAP_S:
+        return (f"stamp jumps {abs(t - previous):.6g} s {'ahead of' if t > previous else 'behind'} the stream (more "
+                f"than {MAX_STAMP_GAP_S:g} s)")
     return None
+
+
+def clock_jump_words(before: float, after: float) -> str:
+    """How far and which way a clock jumped from the stamp ``before`` to ``after`` (s): e.g. "172800 s ahead",
+    "1.7e+09 s back"."""
+    return f"{abs(after - before):.6g} s {'ahead' if after > before else 'back'}"
 
 
 def check_stamps(t: np.ndarray, source: str, field: str = "t") -> None:
@@ -714,18 +722,19 @@ def imu_implausible(t: np.ndarray, f_b: np.ndarray, omega_b: np.ndarray, config:
 
 
 def imu_unmeasured(t: np.ndarray, f_b: np.ndarray, omega_b: np.ndarray, fields=IMU_FIELDS, source: str = "",
-                   lines: np.ndarray | None = None, where: list[str] | None = None) -> dict[str, np.ndarray]:
+                   lines: np.ndarray | None = None, where: list[str] | None = None,
+                   row: str = "IMU row(s)") -> dict[str, np.ndarray]:
     """The IMU rows that hold no measurement, by reason, disjoint: a logger's all-zero filler (:func:`imu_filler`;
     :func:`check_filler_gaps` with ``source`` and the file ``lines`` or ``where`` the file holds each row), three
     accelerometer values of exactly 0 beside a gyro's (:data:`ACCEL_ZERO`), a NaN or infinite value
     (:func:`not_finite`, named by the first of ``fields``). Zero and NaN are so in any unit: a reader refuses them
     before it judges the IMU's units or axes by its rows. ``t`` (N,) s, ``f_b`` (N,3) m/s^2, ``omega_b`` (N,3) rad/s
-    (any units)."""
+    (any units); ``row``: what the file calls a row, for the gap's message (a bag's: a message of its topic)."""
     filler = imu_filler(f_b, omega_b)
     dead = ~np.any(np.asarray(f_b, float) != 0.0, axis=1) & ~filler
     nan = not_finite(np.hstack([f_b, omega_b]), fields)
     check_filler_gaps(t, filler, source, lines, unmeasured=np.any([filler, dead, *nan.values()], axis=0), where=where,
-                      dead=dead)
+                      dead=dead, row=row)
     return {IMU_FILLER: filler, ACCEL_ZERO: dead, **nan}
 
 
@@ -761,39 +770,55 @@ def whole_hours(step_s: float) -> str:
 
 def check_filler_gaps(t: np.ndarray, filler: np.ndarray, source: str, lines: np.ndarray | None = None,
                       unmeasured: np.ndarray | None = None, where: list[str] | None = None,
-                      dead: np.ndarray | None = None) -> None:
+                      dead: np.ndarray | None = None, row: str = "IMU row(s)") -> None:
     """DataError (:func:`check_imu_gap`, naming ``source``, the stamps around the gap and, when ``lines`` gives it,
     the file line of the row after it, or ``where`` the file holds it: a bag's message) when a run of rows without a
     measurement between two other rows at stamps ``t`` (N,) s leaves an IMU gap longer than can be bridged: the IMU
     stopped there as it does in a true gap of that length, whatever the rows hold. ``filler`` (N,) bool: the
     all-zero rows; ``unmeasured`` (N,) bool: those and any other row refused for holding no measurement (a NaN, a dead
     accelerometer, :func:`imu_unmeasured`; default ``filler``): filler next to NaN rows leaves one gap, and so do NaN
-    rows alone. A run at either end of the file only starts the IMU later or ends it earlier; a file of filler only is
-    a DataError too (the IMU delivered nothing). ``dead`` (N,) bool: the rows of a dead accelerometer among
-    ``unmeasured`` (:data:`ACCEL_ZERO`; default none), which the message names as such (:func:`_left_by`)."""
+    rows alone. A lone row between two such runs does not end the gap (:func:`_lone_rows`). A run at either end of the
+    file only starts the IMU later or ends it earlier; a file of filler only is a DataError too (the IMU delivered
+    nothing). ``dead`` (N,) bool: the rows of a dead accelerometer among ``unmeasured`` (:data:`ACCEL_ZERO`; default
+    none), which the message names as such (:func:`_left_by`); ``row``: what the file calls a row (a bag's: a message
+    of its topic)."""
     t, filler = np.asarray(t, float), np.asarray(filler, bool)
     dead = np.zeros(len(t), bool) if dead is None else np.asarray(dead, bool)
     _check_not_all_filler(filler, source, lines)
     gone = filler if unmeasured is None else np.asarray(unmeasured, bool)
-    for a, last in _runs(gone):
+    lone = _lone_rows(gone)
+    for a, last in _runs(gone | lone):
         b = last + 1
         if a > 0 and b < len(t):
             at = "" if where is None else f"{where[b]}: "
+            left = _left_by(b - a, int(filler[a:b].sum()), int(dead[a:b].sum()), int(lone[a:b].sum()), row)
             check_imu_gap(float(t[a - 1]), float(t[b]), source, None if lines is None else int(lines[b]), None,
-                          what=f"{at}IMU gap left by {_left_by(b - a, int(filler[a:b].sum()), int(dead[a:b].sum()))}")
+                          what=f"{at}IMU gap left by {left}")
 
 
-def _left_by(rows: int, zeros: int, dead: int) -> str:
+def _lone_rows(gone: np.ndarray) -> np.ndarray:
+    """(N,) bool: the rows not in ``gone`` (N,) bool whose both neighbours are: one row between two runs of rows
+    without a measurement bridges nothing (a 700 s run of NaN split by one row later refused as beyond full scale
+    was read as two runs of 350 s, each bridged, and the 700 s were refused by the run naming no line)."""
+    lone = np.zeros(len(gone), bool)
+    lone[1:-1] = ~gone[1:-1] & gone[:-2] & gone[2:]
+    return lone
+
+
+def _left_by(rows: int, zeros: int, dead: int, lone: int = 0, row: str = "IMU row(s)") -> str:
     """What a run of ``rows`` IMU rows without a measurement held, ``zeros`` of them a logger's filler and ``dead``
-    a dead accelerometer's, the others NaN or infinite: each kind named, so the user looks for what the file holds
-    (a run of filler and dead-accelerometer rows was said to hold NaN)."""
+    a dead accelerometer's, ``lone`` of them a row alone between two such runs (:func:`_lone_rows`), the others NaN or
+    infinite: each kind named, so the user looks for what the file holds (a run of filler and dead-accelerometer rows
+    was said to hold NaN). ``row``: what the file calls a row (a bag's: a message of its topic)."""
     if zeros == rows:
-        return f"{rows} all-zero IMU row(s) (a logger's filler)"
+        return f"{rows} all-zero {row} (a logger's filler)"
     kinds = [f"{zeros} all-zero: a logger's filler"] * bool(zeros) + [
         f"{dead} of a dead accelerometer: its three values 0 beside a live gyro"] * bool(dead)
-    if rows > zeros + dead:
+    if rows > zeros + dead + lone:
         kinds.append("the others NaN or infinite" if kinds else "NaN or infinite values")
-    return f"{rows} IMU row(s) without a measurement ({'; '.join(kinds)})"
+    if lone:
+        kinds.append(f"{lone} alone between them, which bridge{'s' * (lone == 1)} nothing")
+    return f"{rows} {row} without a measurement ({'; '.join(kinds)})"
 
 
 def _check_not_all_filler(filler: np.ndarray, source: str, lines: np.ndarray | None) -> None:
@@ -1174,11 +1199,13 @@ def measurements(entry: dict) -> tuple[int, dict[str, int]]:
     return entry.get("read", 0) - filler, refused
 
 
-def check_refused_fraction(meta: dict, limit: float = MAX_REFUSED_FRACTION, advice: dict | None = None) -> None:
+def check_refused_fraction(meta: dict, limit: float = MAX_REFUSED_FRACTION, advice: dict | None = None,
+                           fields: dict | None = None) -> None:
     """Raise :class:`DataError` naming the stream and its reasons when more than ``limit`` of a stream in
     ``meta["streams"]`` was refused; ``advice`` (stream -> text): what to check for that stream, when known better
-    than the units and sensor ranges. An IMU of more than :data:`MAX_FILLER_SHARE` filler is one too
-    (:func:`check_filler_share`)."""
+    than the units and sensor ranges. The field named is the column the main reason names, the accelerometer's
+    (``fields``: stream -> its six value columns, f_b first; default :data:`IMU_FIELDS`) for a dead one's rows, else
+    the stream's. An IMU of more than :data:`MAX_FILLER_SHARE` filler is one too (:func:`check_filler_share`)."""
     for stream, entry in meta.get("streams", {}).items():
         check_filler_share(entry, stream)
         if over_refused_limit(meta, stream, limit):
@@ -1187,6 +1214,9 @@ def check_refused_fraction(meta: dict, limit: float = MAX_REFUSED_FRACTION, advi
             ranked = sorted(by_reason.items(), key=lambda kv: -kv[1])
             reasons = ", ".join(f"{n} {r}" for r, n in ranked)
             column = re.search(r"in '([^']+)'", ranked[0][0])      # the column the main reason names
+            named = column[1] if column else None
+            if ranked[0][0] == ACCEL_ZERO:      # its rows name no column: the accelerometer's three are the ones
+                named = ", ".join((fields or {}).get(stream, IMU_FIELDS)[:3])
             where = "the units, the column map" if meta.get("format") == "csv" else "the units"
             check = f"{where} and the configuration's sensor ranges"
             if ranked[0][0] in (REPAIRED_STAMP, EXACT_COPY):     # the values were never judged: the stamps are wrong
@@ -1198,7 +1228,7 @@ def check_refused_fraction(meta: dict, limit: float = MAX_REFUSED_FRACTION, advi
             raise DataError(f"{refused} of {read} {stream} samples refused ({reasons}): more than "
                             f"{limit:.0%} of the stream; {check}",
                             entry.get("source") or stream,
-                            field=column[1] if column else meta.get("stream_fields", {}).get(stream, stream))
+                            field=named or meta.get("stream_fields", {}).get(stream, stream))
 
 
 def _holds_no_measurement(reason: str) -> bool:
@@ -1231,13 +1261,13 @@ def check_filler_share(entry: dict, stream: str = "imu") -> None:
 
 
 def refuse_rows(meta: dict, stream: str, masks: dict[str, np.ndarray], source: str, lines: np.ndarray | None, *arrays,
-                where: list[str] | None = None) -> tuple[np.ndarray, ...]:
+                where: list[str] | None = None, fields=None) -> tuple[np.ndarray, ...]:
     """``arrays`` (each (N, ...), rows in file order) without the rows of ``masks`` (reason -> (N,) bool), which
     are counted and warned about with their file ``lines`` (or ``where`` the file holds each row, e.g. a bag
     message: :func:`refuse`); DataError when more than half of a stream is refused now
-    (:func:`check_refused_fraction`)."""
+    (:func:`check_refused_fraction`, naming the stream's value columns ``fields`` when a reason names none)."""
     bad = refuse(meta, stream, masks, source, lines=lines, where=where)
-    check_refused_fraction(meta)
+    check_refused_fraction(meta, fields=None if fields is None else {stream: tuple(fields)})
     return tuple(a[~bad] for a in arrays)
 
 
@@ -2008,7 +2038,8 @@ class StreamScreen:
                           if self.judge_zeros else {})
         self._newest = -math.inf      # newest stamp accepted on any stream (one clock)
         self.oldest = math.inf        #: oldest stamp accepted on any stream, s
-        #: the first stamp that jumped more than MAX_STAMP_GAP_S ahead: (stream, newest stamp before it, its stamp), s
+        #: the first stamp more than MAX_STAMP_GAP_S ahead of the newest or behind it: (stream, newest stamp before it,
+        #: its stamp), s
         self.clock_jump: tuple[str, float, float] | None = None
         #: samples per stream refused for such a jump
         self.jumped: dict[str, int] = {}
@@ -2019,13 +2050,14 @@ class StreamScreen:
 
     def stamp_problem(self, stream: str, t: float) -> str | None:
         """Why a stamp of ``stream`` is refused: beyond the bounds, or a jump of more than
-        :data:`MAX_STAMP_GAP_S` ahead of the newest stamp of the streams (they share one clock: the first such
-        jump is kept in :attr:`clock_jump`, the samples refused for one counted in :attr:`jumped`)."""
+        :data:`MAX_STAMP_GAP_S` ahead of the newest stamp of the streams or behind it (:func:`stamp_jumps`; they share
+        one clock: the first such jump is kept in :attr:`clock_jump`, the samples refused for one counted in
+        :attr:`jumped`; a first record days ahead of the stream after it shows as the stream jumping back)."""
         why = stamp_problem(t)
         if why is not None:
             return why
         t = float(t)
-        why = stamp_jumps_ahead(t, self._newest)
+        why = stamp_jumps(t, self._newest)
         if why is not None:
             if not self._jump_open:
                 self.clock_jump, self._jump_open, self._imu_jump_run = (stream, self._newest, t), True, 0
@@ -2052,11 +2084,12 @@ class StreamScreen:
         if refused_stream != "imu" and not self.jumped.get("imu"):
             n = self.jumped.get(refused_stream, 0)
             return (f"{n} of {received.get(refused_stream, n)} {refused_stream} samples are stamped more than "
-                    f"{MAX_STAMP_GAP_S:g} s ahead of the IMU's (by {after - before:.6g} s at t = {before:.3f} s) "
+                    f"{MAX_STAMP_GAP_S:g} s {'ahead of' if after > before else 'behind'} the IMU's (by "
+                    f"{abs(after - before):.6g} s at t = {before:.3f} s) "
                     f"while the IMU went on: the {refused_stream} stamps are not on the clock the other streams "
                     "share; correct its stamps (their offset) or its clock")
         refused = ", ".join(f"{n} of {received.get(s, n)} {s}" for s, n in self.jumped.items())
-        return (f"the clock jumped {after - before:.6g} s ahead at t = {before:.3f} s, "
+        return (f"the clock jumped {clock_jump_words(before, after)} at t = {before:.3f} s, "
                 f"first on the {stream} stream (its sample stamped {after:.6g} s): more than {MAX_STAMP_GAP_S:g} s, "
                 f"no stream pauses so long; {refused} samples refused after it (every stream shares the clock); "
                 "split the stream there or correct its stamps")

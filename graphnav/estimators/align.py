@@ -90,6 +90,7 @@ from graphnav.core.config import DEG_PER_HOUR, SensorConfig
 from graphnav.core.dvl import DvlGeometry
 from graphnav.core.earth import EARTH_RATE, EarthModel, earth_rate_n, lla_to_ned
 from graphnav.core.errors import ConfigError
+from graphnav.core.imu_timing import imu_rate_hz
 from graphnav.core.mission import IMU_GAP_PERIODS
 from graphnav.core.screening import SpikeTest
 from graphnav.core.rotations import C_b_n_to_euler, skew, so3_exp_batch
@@ -1158,11 +1159,14 @@ def align_mission(mission, options: AlignOptions | None = None, *, use_depth: bo
     ``mission.t0`` to smooth a whole record offline, see :meth:`Aligner.result_at`); what is known at the
     start (initial heading, position) is in ``options``. Raises :class:`AlignmentError` when the mission ends (or
     ``t_end`` comes) before the aligner is ready. The aligner is told of every IMU gap the estimators bridge
-    (:data:`~graphnav.core.mission.IMU_GAP_PERIODS` periods of the configured rate, as
-    :meth:`~graphnav.core.mission.ImuData.bridge_gaps`), as the Navigator tells it live (:meth:`Aligner.imu_gap`).
+    (:data:`~graphnav.core.mission.IMU_GAP_PERIODS` periods of the rate its stamps show,
+    :func:`~graphnav.core.imu_timing.imu_rate_hz`), as the Navigator tells it live (:meth:`Aligner.imu_gap`: its
+    keyframer judges gaps by the period the stream shows, not the configured one).
     """
     aligner = Aligner(mission.config, options)
-    gap_limit_s = IMU_GAP_PERIODS / mission.config.imu_rate_hz
+    rate_hz = imu_rate_hz(mission.imu.t, mission.config.imu_rate_hz)
+    # a configured rate the data do not have would tell gaps that are none, or miss some (the live keyframer's)
+    gap_limit_s = IMU_GAP_PERIODS / (rate_hz if np.isfinite(rate_hz) else mission.config.imu_rate_hz)
     gap_before = set((np.flatnonzero(np.diff(mission.imu.t) > gap_limit_s) + 1).tolist())    # IMU indices after one
     events = [(t, 0, i) for i, t in enumerate(mission.imu.t)]
     events += [(t, 1, i) for i, t in enumerate(mission.dvl.t)]

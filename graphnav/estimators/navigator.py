@@ -14,9 +14,9 @@ What happens to a sample:
    stamp older than the reorder window allows, or a stamp already seen on the same stream is refused with a
    warning naming the stream, stamp and field, and counted in :attr:`Navigator.info` (``refused``). Then the
    screening of :mod:`graphnav.core.screening`, the same rules the loaders apply: a stamp beyond
-   ``MAX_STAMP_S`` or more than a day ahead of the stream, an IMU value beyond the instrument's full scale or
-   spiking (a run of up to 0.1 s of samples departing from the median of the last 0.1 s accepted, past the spike
-   test's floor and the signal's own noise, unless it rose there over samples as a shock does:
+   ``MAX_STAMP_S`` or more than a day ahead of the stream or behind it, an IMU value beyond the instrument's full
+   scale or spiking (a run of up to 0.1 s of samples departing from the median of the last 0.1 s accepted, past the
+   spike test's floor and the signal's own noise, unless it rose there over samples as a shock does:
    :class:`~graphnav.core.screening.ImuSpikeTest`, run in stamp order as
    the samples leave the reorder buffer; off, with a warning and a note in :attr:`Navigator.info` (``notes``), for
    an IMU under 50 Hz), a DVL beam beyond the
@@ -69,7 +69,7 @@ from graphnav.core.errors import ConfigError, DataError
 from graphnav.core.mission import MAX_DVL_SPEED_MPS
 from graphnav.core.screening import (CLOCK_JUMP_CONFIRM_S, EXACT_COPY, IMU_STALL_CONTEXT_S, IMU_STALL_UNTOLD,
                                      IMU_STALLED, MAX_REFUSED_FRACTION, NO_BOTTOM_LOCK, NUDGED_COPY, ImuStallTest,
-                                     NudgedCopies, RecentRepeats, StreamScreen)
+                                     NudgedCopies, RecentRepeats, StreamScreen, clock_jump_words)
 from graphnav.estimators.align import AlignOptions
 from graphnav.estimators.backends import BACKENDS, make_backend
 from graphnav.estimators.coasting import CoastingMonitor, SigmaMonitor
@@ -615,8 +615,9 @@ class Navigator:
                         field="t")
 
     def _start_over_on_new_clock(self, refusing: str) -> None:
-        """The clock stepped days ahead before the estimator started, after at most a second of samples (a stream
-        whose first stamps are bad, 0 then Unix time; :meth:`_stop_at_clock_step`): those few are
+        """The clock stepped days ahead or back before the estimator started, after at most a second of samples (a
+        stream whose first stamps are bad, 0 then Unix time, or Unix time then seconds since boot;
+        :meth:`_stop_at_clock_step`): those few are
         not trusted over the second of IMU samples after them that confirmed the new clock. They are refused and
         counted, and the Navigator starts over on the new clock, its counts kept (the samples that showed the step
         were refused already; ``refusing``: the stream of the one being refused)."""
@@ -631,8 +632,8 @@ class Navigator:
         for k, n in kept.items():      # counted as any refused stamp (field 't')
             self.samples_refused[k] = self.samples_refused.get(k, 0) + n
             self.refused.setdefault(k, {})["t"] = self.refused.get(k, {}).get("t", 0) + n
-        warnings.warn(f"navigator: the clock jumped {after - before:.6g} s ahead at t = {before:.3f} s, first on the "
-                      f"{stream} stream (its sample stamped {after:.6g} s), after only "
+        warnings.warn(f"navigator: the clock jumped {clock_jump_words(before, after)} at t = {before:.3f} s, first "
+                      f"on the {stream} stream (its sample stamped {after:.6g} s), after only "
                       f"{', '.join(f'{n} {k}' for k, n in kept.items())} sample(s): those are refused as stamped on "
                       f"another clock than the stream went on with, and the stream starts over on that clock "
                       f"({jumped} samples after the step were refused while it could have been corrupted stamps)",

@@ -20,13 +20,15 @@ from graphnav.core.errors import ConfigError, DataError
 from graphnav.core.mission import (MAX_DVL_SPEED_MPS, MAX_FIX_SIGMA_M, DepthData, DvlData, GroundTruth, HeadingData,
                                    ImuData, PositionFixData, no_beams)
 from graphnav.core.rotations import C_NED_ENU
-from graphnav.core.screening import (EXACT_COPY, MAX_STAMP_GAP_S, NUDGED_COPY, exact_copies, imu_unmeasured, located,
-                                     nudged_copies, refuse_rows, say_exact_copies, say_imu_stamp_steps,
-                                     say_nudged_copies)
+from graphnav.core.screening import (EXACT_COPY, IMU_FILLER, MAX_STAMP_GAP_S, NUDGED_COPY, exact_copies, imu_unmeasured,
+                                     located, nudged_copies, refuse_rows, say_exact_copies, say_imu_stamp_steps,
+                                     say_nudged_copies, zeroed_filler)
 from graphnav.core.streams import add_note, count_refused, say_doubted
 from graphnav.io import bag_fields
-from graphnav.io.bag_stamps import (HEADER_CLOCK_SET_RIGHT, HEADER_CLOCK_STEP, HEADER_STEP_SPREADS, HEADER_STEP_WINDOW,
-                                    latency_drop, latency_step, nearer_the_receive_clock, on_the_grid, set_right)
+from graphnav.io.bag_stamps import (CLOCK_DRIFT_NOTE_S, HEADER_CLOCK_DRIFT, HEADER_CLOCK_DRIFT_UNTOLD,
+                                    HEADER_CLOCK_STEP, HEADER_STEP_SPREADS, clock_step_moved, latency_drop,
+                                    latency_rate, latency_step, nearer_the_receive_clock, on_the_grid, say_set_right,
+                                    say_steps_back, steps_back_repaired)
 from graphnav.io.bag_msgs import MARINE_DVL, WL_DVL
 
 #: FLU <-> FRD (its own inverse) and ENU <-> NED (its own inverse).
@@ -180,17 +182,23 @@ def decoded_stream(topic: str, msgtype: str, header_ns: np.ndarray | None, recei
     moment later (:func:`~graphnav.core.screening.nudged_copies`). Each is counted in the stream's log and kept in
     ``Stream.twice`` for the warning when the topic is used (:func:`warn_written_twice`). ``clock_s``: the IMU's
     header minus receive time, s (a header clock set right is judged against it)."""
-    from graphnav.io.bag_stamps import choose_stamps
+    from graphnav.io.bag_stamps import why_not_header, choose_stamps
     sub: dict = {}
     twice: dict = {}
     values = message_values(rows)
     index = np.arange(len(rows))
+    zeroed = _zeroed_filler(stream, header_ns, rows, label)
+    if zeroed.any() and why_not_header(header_ns[~zeroed]) is None:
+        count_refused(sub, stream, IMU_FILLER, int(zeroed.sum()))
+        twice[IMU_FILLER] = (np.flatnonzero(zeroed), receive_ns[zeroed], 0.0)
+        index = np.flatnonzero(~zeroed)
+        header_ns, receive_ns, values = header_ns[index], receive_ns[index], values[index]
     if header_ns is not None and len(rows) > 2 and np.all(header_ns != 0):
         t = (header_ns - header_ns[0]) / 1e9
         copies, repeat = exact_copies(t, np.column_stack([t, values]))
         if copies.size and not (stream == "imu" and repeat):
             count_refused(sub, stream, EXACT_COPY, int(copies.size))
-            twice[EXACT_COPY] = (copies, header_ns[copies], 0.0)
+            twice[EXACT_COPY] = (index[copies], header_ns[copies], 0.0)
             index = np.delete(index, copies)
             header_ns, receive_ns, values = header_ns[index], receive_ns[index], values[index]
     t_ns, keep, how = choose_stamps(header_ns, receive_ns, sub, stream, label, clock_s)
@@ -207,13 +215,32 @@ def decoded_stream(topic: str, msgtype: str, header_ns: np.ndarray | None, recei
                   index, twice)
 
 
+def _zeroed_filler(stream: str, header_ns: np.ndarray | None, rows: list, label: str) -> np.ndarray:
+    """(N,) bool: the IMU messages (``stream`` "imu") of a logger's filler whose header stamp is zeroed too
+    (:func:`graphnav.core.screening.zeroed_filler`): no time, so out before the stamps are chosen, as a column map's
+    rows are (21 of them put the whole topic on its receive time, 'header stamp(s) are zero'), when the other
+    messages' header stamps are sane. A topic whose every stamp is zero has no header clock, and one whose other stamps
+    are not sane (a stall, a step back) is on its receive time anyway: there the filler's stamps are there, and it is
+    refused with the other messages holding no measurement. A topic of filler only is a DataError naming ``label``."""
+    if (stream != "imu" or header_ns is None or not np.any(header_ns != 0)
+            or not hasattr(rows[0], "linear_acceleration")):
+        return np.zeros(len(rows), bool)
+    six = np.array([[*vec(m.linear_acceleration), *vec(m.angular_velocity)] for m in rows])
+    return zeroed_filler(header_ns, six, label)
+
+
 def warn_written_twice(s: Stream, t0_ns: int, source: str) -> None:
     """The warnings of the messages :func:`decoded_stream` dropped as published twice, each named by its index in
-    the topic and its time on the mission's clock."""
+    the topic and its time on the mission's clock, and of an IMU's filler with its stamp zeroed (named by its receive
+    time)."""
     for reason, (index, t_ns, moved) in s.twice.items():
         where = _named(index, t_ns, t0_ns)
         at = np.arange(index.size)
-        if reason == EXACT_COPY:
+        if reason == IMU_FILLER:
+            warnings.warn(f"{source}:{s.topic}: {index.size} imu sample(s) refused ({index.size} {IMU_FILLER}, its "
+                          f"header stamp zeroed too, received at {located(at, where=where)}); they are not used",
+                          RuntimeWarning, stacklevel=2)
+        elif reason == EXACT_COPY:
             say_exact_copies(at, f"{source}:{s.topic}", where=where, stacklevel=3)
         else:
             say_nudged_copies(at, moved, f"{source}:{s.topic}", where=where, stacklevel=3)
@@ -256,7 +283,10 @@ def header_clock_steps_removed(s: Stream, source: str, meta: dict, steps: list |
     (:func:`graphnav.io.bag_stamps.latency_drop`) is told by the sample grid: stamps staying on it across the gap are
     messages lost (left, warned), stamps leaving it a clock step (moved); stamps too uneven to tell are moved, the
     warning saying it could not be told. Each step moved back is appended to ``steps`` (when given) as (the receive
-    time of its first message, ns; the stamps' shift, ns) for :func:`shared_clock_step_removed`."""
+    time of its first message, ns; the stamps' shift, ns) for :func:`shared_clock_step_removed`. Before them, a topic
+    other than the IMU's has its steps back under a period (its stamps still increasing, so not repaired as they
+    were chosen) taken out by :func:`graphnav.io.bag_stamps.steps_back_repaired`; either way the stamps are moved by
+    :func:`graphnav.io.bag_stamps.clock_step_moved` and a clock set right is said in one wording."""
     from graphnav.core.imu_timing import GAP_WARN_SAMPLES, imu_step_stats
     if s.stamp_kind != "header" or s.receive_ns is None or len(s.t_ns) < 3:
         return s
@@ -265,8 +295,14 @@ def header_clock_steps_removed(s: Stream, source: str, meta: dict, steps: list |
     period = imu_step_stats(np.diff(t_ns) / 1e9)[0]
     if not np.isfinite(period) or period <= 0:
         return s
-    latency = (t_ns - rx_ns) / 1e9      # moved with the stamps: computed once (a gap per second over hours)
     moved = 0
+    if kind != "imu":
+        # a step back under a period keeps the stamps increasing: not taken out with the others as they were chosen
+        back = steps_back_repaired(t_ns, rx_ns, kind, None, clock_s)
+        if back is not None:
+            t_ns, moved = back[0], len(back[1])
+            say_steps_back(back[1], meta, kind, f"{source}:{s.topic}", index=s.index)
+    latency = (t_ns - rx_ns) / 1e9      # moved with the stamps: computed once (a gap per second over hours)
     for i in np.flatnonzero(np.diff(t_ns) / 1e9 >= GAP_WARN_SAMPLES * period):
         step, spread = latency_step(latency, i + 1)
         if step < max(GAP_WARN_SAMPLES * period, HEADER_STEP_SPREADS * spread):
@@ -291,30 +327,56 @@ def header_clock_steps_removed(s: Stream, source: str, meta: dict, steps: list |
                       if grid is None else "; the stamps leave their sample grid, so the header clock stepped, but "
                       "whether some of the {} period(s) were messages lost as the recorder's latency dropped {:.3f} s "
                       "cannot be told").format(lost_n, step)
-        shift_ns = int(round((jump - periods * period) * 1e9))
         lost = ("while the messages kept arriving (receive time {:+.3f} s): no messages lost" if periods == 1 else
                 f"while the receive time steps {{:+.3f}} s: {periods - 1} messages lost by it, the rest the clock's "
                 "step").format(rx_s)
         moved += 1
-        if kind != "imu" and set_right(latency, i + 1, step, clock_s):
-            before = float(np.median(latency[max(0, i + 1 - HEADER_STEP_WINDOW):i + 1]))
-            t_ns[:i + 1] += shift_ns
-            latency[:i + 1] += shift_ns / 1e9
-            text = (f"{s.topic}, {at_i}, field '{STAMP_FIELDS['header']}': the header clock steps {jump:+.3f} s "
-                    f"{lost}, header minus receive time {before:+.3f} s before it and {before + step:+.3f} s after: "
-                    f"the clock is set right here; the {i + 1} stamp(s) before this message are moved by "
-                    f"{shift_ns / 1e9:+.3f} s onto the clock after the step")
-            say_doubted(meta, kind, source, text + untold, HEADER_CLOCK_SET_RIGHT, i + 1, stacklevel=2)
+        m = clock_step_moved(t_ns, latency, i + 1, step, spread, period, kind, clock_s, 0, len(t_ns))
+        at = f"{s.topic}, {at_i}, field '{STAMP_FIELDS['header']}': "
+        if m["before"]:
+            prev = f"message {i if s.index is None else s.index[i]}"
+            seen = f", {periods - 1} messages lost by it" if periods > 1 else ""
+            say_set_right(meta, kind, source, at, {**m, "rx_s": rx_s, "n": i + 1}, prev, prev, seen, untold,
+                          stacklevel=2)
             continue
-        t_ns[i + 1:] -= shift_ns
-        latency[i + 1:] -= shift_ns / 1e9
         if steps is not None:
-            steps.append((int(rx_ns[i + 1]), shift_ns))
-        text = (f"{s.topic}, {at_i}, field '{STAMP_FIELDS['header']}': the header clock steps {jump:+.3f} s {lost}; "
-                f"the stamps from this message on are moved back by {shift_ns / 1e9:.3f} s onto the clock before the "
-                "step")
+            steps.append((int(rx_ns[i + 1]), -m["shift_ns"]))
+        text = (f"{at}the header clock steps {jump:+.3f} s {lost}; the stamps from this message on are moved back by "
+                f"{-m['shift_s']:.3f} s onto the clock before the step")
         say_doubted(meta, kind, source, text + untold, HEADER_CLOCK_STEP, len(t_ns) - i - 1, stacklevel=2)
     return dataclasses.replace(s, t_ns=t_ns) if moved else s
+
+
+def header_clock_drift_removed(s: Stream, source: str, meta: dict, kind: str, clock_rate: float = 0.0) -> Stream:
+    """``s`` (a topic other than the IMU's, on its header stamps, its steps taken out) with its header clock's drift
+    against the IMU's taken out: header minus receive time running on a line
+    (:func:`~graphnav.io.bag_stamps.latency_rate`) that leaves the IMU's (``clock_rate``: the IMU's, s per s; a
+    recorder's clock drifting drifts every topic alike) by more than
+    :data:`~graphnav.io.bag_stamps.CLOCK_DRIFT_NOTE_S` over the topic is a clock running fast or slow (a DVL's own
+    oscillator 1 % slow ends 1.5 s behind after 150 s). Warned naming the topic and the field, every message
+    counted as doubted on ``kind``; the stamps are moved onto the IMU's rate from the first message on when the drift
+    is over :data:`HEADER_STEP_SPREADS` of the latency's spread about its line, else kept (the warning says so)."""
+    if s.stamp_kind != "header" or s.receive_ns is None:
+        return s
+    t_ns = np.asarray(s.t_ns, np.int64)
+    rate, spread = latency_rate(t_ns, s.receive_ns)
+    rate -= clock_rate
+    span = (int(s.receive_ns[-1]) - int(s.receive_ns[0])) / 1e9 if len(t_ns) else 0.0
+    drift = rate * span
+    if abs(drift) <= CLOCK_DRIFT_NOTE_S:
+        return s
+    clear = abs(drift) > HEADER_STEP_SPREADS * spread
+    text = (f"{s.topic}, field '{STAMP_FIELDS['header']}': the header clock runs {abs(rate) * 100:.3f} % "
+            f"{'fast' if rate > 0 else 'slow'} against the IMU's: header minus receive time drifts {drift:+.3f} s "
+            f"over the {span:.1f} s of its {len(t_ns)} messages ({spread:.3f} s spread about that line); ")
+    if not clear:
+        say_doubted(meta, kind, source, text + "too spread to take the drift out: the header stamps are kept",
+                    HEADER_CLOCK_DRIFT_UNTOLD, len(t_ns), stacklevel=2)
+        return s
+    moved = t_ns[0] + np.round((t_ns - t_ns[0]) / (1.0 + rate)).astype(np.int64)
+    say_doubted(meta, kind, source, text + f"the stamps are moved onto the IMU's clock rate from the first message on "
+                f"({(moved[-1] - t_ns[-1]) / 1e9:+.3f} s at the last)", HEADER_CLOCK_DRIFT, len(t_ns), stacklevel=2)
+    return dataclasses.replace(s, t_ns=moved)
 
 
 def _say_lost_as_latency_dropped(s: Stream, at: str, jump: float, rx_s: float, step: float, lost_n: int, kind: str,
@@ -397,8 +459,9 @@ def imu(s: Stream, t0_ns: int, source: str, meta: dict) -> ImuData:
     any IMU gap) is refused, warned about (its index in the topic and its time) and counted in ``meta`` under the
     reasons a column map's row gets (``meta["imu_unmeasured_screened"]``: not judged again); more than half refused
     is a DataError (:func:`graphnav.core.screening.check_refused_fraction`), and so is such a run leaving a gap longer
-    than can be bridged (naming the message after it). A step of the IMU clock or a gap in every message's stamps is
-    warned about and counted as a file's is (:func:`graphnav.core.screening.say_imu_stamp_steps`)."""
+    than can be bridged (naming the message after it, and the run as the topic's messages). A step of the IMU clock
+    or a gap in every message's stamps is warned about and counted as a file's is
+    (:func:`graphnav.core.screening.say_imu_stamp_steps`)."""
     f = np.array([vec(m.linear_acceleration) for m in s.rows])
     w = np.array([vec(m.angular_velocity) for m in s.rows])
     t = _rel(s, t0_ns)
@@ -407,8 +470,8 @@ def imu(s: Stream, t0_ns: int, source: str, meta: dict) -> ImuData:
     # on every message's stamp, as a column map's rows before any is refused: the stamps of messages holding no
     # measurement are the IMU's clock still ticking, no samples lost (their gap is the run's to bridge)
     say_imu_stamp_steps(t, t, topic, STAMP_FIELDS[s.stamp_kind], meta, where=where)
-    t, f, w = refuse_rows(meta, "imu", imu_unmeasured(t, f, w, IMU_MESSAGE_FIELDS, topic, where=where), topic, None,
-                          t, f, w, where=where)
+    unmeasured = imu_unmeasured(t, f, w, IMU_MESSAGE_FIELDS, topic, where=where, row=f"message(s) of {s.topic}")
+    t, f, w = refuse_rows(meta, "imu", unmeasured, topic, None, t, f, w, where=where, fields=IMU_MESSAGE_FIELDS)
     meta["imu_unmeasured_screened"] = True
     if not frame_is(s.rows[0].header.frame_id, "_frd"):
         f, w = f @ FLU_FRD, w @ FLU_FRD

@@ -45,16 +45,18 @@ GRID_JITTER_SHARE = 0.1
 MAX_STEPS_BACK = 20
 
 
-def latency_step(latency: np.ndarray, k: int) -> tuple[float, float]:
+def latency_step(latency: np.ndarray, k: int, lo: int = 0, hi: int | None = None) -> tuple[float, float]:
     """How far header minus receive time ``latency`` (s) steps at message ``k`` (the medians over
-    :data:`HEADER_STEP_WINDOW` messages either side), and its spread before it (median absolute deviation), s."""
-    before, after = latency[max(0, k - HEADER_STEP_WINDOW):k], latency[k:k + HEADER_STEP_WINDOW]
+    :data:`HEADER_STEP_WINDOW` messages either side, within messages ``lo`` to ``hi``: the steps either side of it),
+    and its spread before it (median absolute deviation), s."""
+    before = latency[max(lo, k - HEADER_STEP_WINDOW):k]
+    after = latency[k:min(len(latency) if hi is None else hi, k + HEADER_STEP_WINDOW)]
     return (float(np.median(after) - np.median(before)),
             float(np.median(np.abs(before - np.median(before)))))
 
 
-def _latency_before(latency: np.ndarray, k: int) -> float:
-    return float(np.median(latency[max(0, k - HEADER_STEP_WINDOW):k]))
+def _latency_before(latency: np.ndarray, k: int, lo: int = 0) -> float:
+    return float(np.median(latency[max(lo, k - HEADER_STEP_WINDOW):k]))
 
 
 def nearer_the_receive_clock(latency: np.ndarray, k: int, step: float) -> bool:
@@ -65,15 +67,33 @@ def nearer_the_receive_clock(latency: np.ndarray, k: int, step: float) -> bool:
     return abs(before + step) < abs(before)
 
 
-def set_right(latency: np.ndarray, k: int, step: float, clock_s: float = 0.0) -> bool:
+def set_right(latency: np.ndarray, k: int, step: float, clock_s: float = 0.0, lo: int = 0) -> bool:
     """Whether a topic's header clock was set right at message ``k``, where header minus receive time ``latency`` (s)
     steps by ``step`` (s): off both the receive clock and the IMU's (``clock_s``: the IMU's header minus receive time,
     s; a recorder whose own clock is off the vehicle's sees every topic that far off) by more than a latency
-    (:data:`CLOCK_OFFSET_NOTE_S`) before it, within a latency of either after it. The stamps before it are then the
-    wrong ones."""
-    before = _latency_before(latency, k)
+    (:data:`CLOCK_OFFSET_NOTE_S`) before it (from message ``lo`` on), within a latency of either after it. The stamps
+    before it are then the wrong ones."""
+    before = _latency_before(latency, k, lo)
     off = [abs(before - c) for c in (0.0, clock_s)]
     return min(off) > CLOCK_OFFSET_NOTE_S >= min(abs(before + step - c) for c in (0.0, clock_s))
+
+
+def latency_jumps(latency: np.ndarray, period_s: float) -> np.ndarray:
+    """The messages at which header minus receive time ``latency`` (s) jumps, either way, by more than a quarter of
+    the period ``period_s`` (s) and :data:`HEADER_STEP_SPREADS` of its spread from one message to the next: where a
+    header clock may step, and the bounds of the stretch each step is judged over (a clock off for a few messages,
+    then back, is two steps close together)."""
+    dl = np.diff(latency)
+    if not dl.size:
+        return np.zeros(0, int)
+    spread = float(np.median(np.abs(dl - np.median(dl))))
+    return np.flatnonzero(np.abs(dl) > max(period_s / 4, HEADER_STEP_SPREADS * spread)) + 1
+
+
+def _returns(latency: np.ndarray, k: int, step: float, spread: float) -> bool:
+    """Whether header minus receive time ``latency`` (s) jumps back by about ``step`` (s) at message ``k``: the end
+    (or the start) of a stretch on the other clock."""
+    return abs(latency[k] - latency[k - 1] + step) <= max(HEADER_STEP_SPREADS * spread, 0.1 * abs(step))
 
 
 def latency_drop(latency: np.ndarray, k: int, step: float) -> bool:
@@ -102,26 +122,75 @@ def on_the_grid(t_ns: np.ndarray, k: int, period_s: float) -> bool | None:
     jitter = 1.4826 * float(np.median(np.abs(phase(before) - ref)))
     if jitter > GRID_JITTER_SHARE * period_s:
         return None
-    off = float(np.median(phase(after))) - ref
+    # unwrapped about the first stamp after: stamps half a period off would otherwise split between +- half
+    p = phase(after)
+    p = p[0] + (p - p[0]) - np.round((p - p[0]) / period_s) * period_s
+    off = float(np.median(p)) - ref
     off -= round(off / period_s) * period_s
     return abs(off) <= max(4.0 * jitter, 0.01 * period_s)
+
+
+def clock_step_moved(t_ns: np.ndarray, latency: np.ndarray, j: int, step: float, spread: float, period_s: float,
+                     stream: str, clock_s: float, lo: int, hi: int) -> dict:
+    """Take out the step ``step`` (s, :func:`latency_step` over messages ``lo`` to ``hi``, its spread ``spread``) of
+    a topic's header clock at message ``j``, either way, moving the header stamps ``t_ns`` (ns) and header minus
+    receive time ``latency`` (s) in place, so the step lasts as many periods ``period_s`` (s) as the receive time says
+    passed: for a topic other than the IMU's whose clock was set right there (:func:`set_right`, against the IMU's
+    header minus receive time ``clock_s``, s) the stamps before it onto the clock after, else those from it on onto
+    the clock before. Either move stops at the jump back by as much that bounds the stretch (``lo`` or ``hi``: a
+    glitch of the clock, only its stamps are moved). Returns ``jump_s`` (the header step), ``periods``, ``shift_s``
+    (the moved stamps' shift; ``shift_ns`` in ns), ``before`` (True: those before moved), ``first``/``end`` (the
+    moved stamps), ``whole`` (up to the topic's first or last message) and ``latency_s`` (header minus receive time
+    before and after)."""
+    jump = (int(t_ns[j]) - int(t_ns[j - 1])) / 1e9
+    periods = max(1, round((jump - step) / period_s))
+    shift_ns = int(round((jump - periods * period_s) * 1e9))
+    before = stream != "imu" and set_right(latency, j, step, clock_s, lo)
+    if before:
+        moved = slice(lo if lo and _returns(latency, lo, step, spread) else 0, j)
+    else:
+        shift_ns = -shift_ns
+        moved = slice(j, hi if hi < len(t_ns) and _returns(latency, hi, step, spread) else len(t_ns))
+    lat = _latency_before(latency, j, lo)
+    t_ns[moved] += shift_ns
+    latency[moved] += shift_ns / 1e9
+    return {"jump_s": jump, "periods": periods, "shift_ns": shift_ns, "shift_s": shift_ns / 1e9, "before": before,
+            "first": moved.start,
+            "end": moved.stop, "whole": moved.start == 0 or moved.stop == len(t_ns), "latency_s": (lat, lat + step)}
+
+
+def say_set_right(meta: dict, stream: str, label: str, at: str, s: dict, prev: str, first: str, seen: str = "",
+                  tail: str = "", stacklevel: int = 3) -> None:
+    """Warn about and count a topic's header clock set right at ``at`` (the message and field), whichever way it
+    stepped (``s``: from :func:`clock_step_moved`, with ``rx_s`` the receive time's step and ``n`` the stamps moved;
+    ``prev`` names the message before it, ``first`` the first moved, ``seen`` what else the step says, ``tail``
+    what could not be told)."""
+    which = "before it" if s["whole"] else f"from {first} (where the clock stepped off by as much) to it"
+    text = (f"{at}the header clock is set right (its stamp {s['jump_s']:+.3f} s after {prev}'s, received "
+            f"{s['rx_s']:+.3f} s after it{seen}; header minus receive time {s['latency_s'][0]:+.3f} s before, "
+            f"{s['latency_s'][1]:+.3f} s after): another clock before this message, the recorder's latency from it "
+            f"on; the {s['n']} stamp(s) {which} are moved by {s['shift_s']:+.3f} s onto the clock after{tail}")
+    say_doubted(meta, stream, label, text, HEADER_CLOCK_SET_RIGHT, s["n"], stacklevel=stacklevel + 1)
 
 
 def steps_back_repaired(header_ns: np.ndarray, receive_ns: np.ndarray, stream: str, stalled: np.ndarray | None,
                         clock_s: float = 0.0) -> tuple[np.ndarray, list[dict]] | None:
     """``header_ns`` (ns) with each step back of the topic's header clock the receive clock ``receive_ns`` (ns) does
-    not show taken out: a stamp at or before the one before it, or the first after a stall (``stalled``, from
-    :func:`stall_restamped`: a clock that resumes from the value it froze at rather than jumping ahead), where header
-    minus receive time drops by over half a period and :data:`HEADER_STEP_SPREADS` of its spread, judged over
-    :data:`HEADER_STEP_WINDOW` messages either side. The stamps from that message on are moved forward so the step
-    lasts as many periods as the receive time says passed, or, for a topic other than the IMU's whose clock was set
-    right there (:func:`set_right`, judged against the IMU's header minus receive time ``clock_s``, s), those before
-    it back onto the clock after. A drop the window sees that this message's own stamp does not make (a step elsewhere
-    in the window) is not this message's. Stalled messages are left for
+    not show taken out: a stamp at or before the one before it, the first after a stall (``stalled``, from
+    :func:`stall_restamped`: a clock that resumes from the value it froze at rather than jumping ahead), or a stamp
+    less than a period after the one before it that leaves the sample grid (:func:`on_the_grid`), where header minus
+    receive time drops by over a quarter period and :data:`HEADER_STEP_SPREADS` of its spread, judged over
+    :data:`HEADER_STEP_WINDOW` messages either side within the jumps of that latency either side of it
+    (:func:`latency_jumps`: a clock off for a few messages is judged over those alone). The stamps from that message
+    on are moved forward so the step lasts as many periods as the receive time says passed, or, for a topic other
+    than the IMU's whose clock was set right there (:func:`set_right`, judged against the IMU's header minus receive
+    time ``clock_s``, s), those before it back onto the clock after. Either move stops at the jump back by as much
+    that bounds the stretch (a glitch of the clock: only its stamps move). A drop the window sees that this message's
+    own stamp does not make (a step elsewhere in the window) is not this message's. Stalled messages are left for
     :func:`_stall_stamps`. None when nothing was repaired; else (the stamps, one dict per step: ``k`` the message,
     ``prev`` the message before it judged, ``jump_s``, ``rx_s``, ``shift_s`` (the stamps' move), ``before`` True
-    when the messages before it moved, ``n`` how many moved, ``latency_s`` header minus receive time before and
-    after)."""
+    when the messages before it moved, ``n`` how many moved, ``first``/``last`` the first and last moved,
+    ``latency_s`` header minus receive time before and after)."""
     if stream != "imu" and stalled is None and np.any(np.diff(header_ns) == 0):
         return None         # a stall :func:`stall_restamped` did not take (bursts, copies): not a clock's step
     if len(header_ns) < 3 or np.any(header_ns == 0):
@@ -129,32 +198,30 @@ def steps_back_repaired(header_ns: np.ndarray, receive_ns: np.ndarray, stream: s
     ok = np.arange(len(header_ns)) if stalled is None else np.flatnonzero(~stalled)
     t, rx = header_ns[ok].copy(), receive_ns[ok]
     d = np.diff(t)
-    cand = np.flatnonzero(d <= 0) + 1
-    if stalled is not None:
-        cand = np.union1d(cand, np.flatnonzero(np.diff(ok) > 1) + 1)
-    if not cand.size or cand.size > MAX_STEPS_BACK or not np.any(d > 0):
+    if not np.any(d > 0):
         return None
     period = float(np.median(d[d > 0])) / 1e9
     latency = (t - rx) / 1e9
+    jumps = latency_jumps(latency, period)
+    drops = jumps[(latency[jumps] < latency[jumps - 1]) & (d[jumps - 1] > 0)]
+    drops = np.array([j for j in drops if on_the_grid(t, j, period) is False], int)
+    cand = np.union1d(np.flatnonzero(d <= 0) + 1, drops)
+    if stalled is not None:
+        cand = np.union1d(cand, np.flatnonzero(np.diff(ok) > 1) + 1)
+    if not cand.size or cand.size > MAX_STEPS_BACK:
+        return None
+    bounds = np.union1d(jumps, cand)
     done = []
     for j in cand:
-        step, spread = latency_step(latency, j)
-        if -step < max(period / 2, HEADER_STEP_SPREADS * spread) or latency[j] - latency[j - 1] > step / 2:
+        lo = int(bounds[bounds < j].max(initial=0))
+        hi = int(bounds[bounds > j].min(initial=len(t)))
+        step, spread = latency_step(latency, j, lo, hi)
+        if -step < max(period / 4, HEADER_STEP_SPREADS * spread) or latency[j] - latency[j - 1] > step / 2:
             continue
-        jump = (t[j] - t[j - 1]) / 1e9
-        periods = max(1, round((jump - step) / period))
-        shift_ns = int(round((jump - periods * period) * 1e9))
-        before = stream != "imu" and set_right(latency, j, step, clock_s)
-        lat = (_latency_before(latency, j), _latency_before(latency, j) + step)
-        if before:
-            t[:j] += shift_ns
-            latency[:j] += shift_ns / 1e9
-        else:
-            t[j:] -= shift_ns
-            latency[j:] -= shift_ns / 1e9
-        done.append({"k": int(ok[j]), "prev": int(ok[j - 1]), "jump_s": jump, "rx_s": (rx[j] - rx[j - 1]) / 1e9,
-                     "shift_s": (shift_ns if before else -shift_ns) / 1e9, "before": before,
-                     "n": int(ok[j]) if before else len(header_ns) - int(ok[j]), "latency_s": lat})
+        moved = clock_step_moved(t, latency, j, step, spread, period, stream, clock_s, lo, hi)
+        first, end = int(ok[moved["first"]]), int(ok[moved["end"]]) if moved["end"] < len(t) else len(header_ns)
+        done.append({**moved, "k": int(ok[j]), "prev": int(ok[j - 1]), "rx_s": (rx[j] - rx[j - 1]) / 1e9,
+                     "n": end - first, "first": first, "last": end - 1})
     if not done:
         return None
     out = header_ns.copy()
@@ -162,25 +229,56 @@ def steps_back_repaired(header_ns: np.ndarray, receive_ns: np.ndarray, stream: s
     return out, done
 
 
-def _say_steps_back(steps: list[dict], meta: dict, stream: str, label: str) -> None:
-    """Warn about and count each step back :func:`steps_back_repaired` took out."""
+def say_steps_back(steps: list[dict], meta: dict, stream: str, label: str, stacklevel: int = 3,
+                    index: np.ndarray | None = None) -> None:
+    """Warn about and count each step back :func:`steps_back_repaired` took out (``index``: each stamp's message in
+    the topic, when the stamps are some of its messages)."""
+    def name(k: int) -> str:
+        return f"message {k if index is None else int(index[k])}"
     for s in steps:
-        at = f"message {s['k']}, field 'header.stamp': "
-        seen = (f"(its stamp {s['jump_s']:+.3f} s after message {s['prev']}'s, received {s['rx_s']:+.3f} s after it; "
-                f"header minus receive time {s['latency_s'][0]:+.3f} s before, {s['latency_s'][1]:+.3f} s after)")
+        at = f"{name(s['k'])}, field 'header.stamp': "
         if s["before"]:
-            text = (f"{at}the header clock is set right {seen}: another clock before this message, the recorder's "
-                    f"latency from it on; the {s['n']} stamp(s) before it are moved by {s['shift_s']:+.3f} s onto "
-                    "the clock after")
-            reason = HEADER_CLOCK_SET_RIGHT
-        else:
-            text = (f"{at}the header clock steps back {seen} while the messages kept arriving; the stamps from this "
-                    f"message on are moved forward by {s['shift_s']:.3f} s onto the clock before the step")
-            reason = HEADER_CLOCK_STEP_BACK
-        say_doubted(meta, stream, label, text, reason, s["n"], stacklevel=3)
+            say_set_right(meta, stream, label, at, s, name(s["prev"]), name(s["first"]), stacklevel=stacklevel)
+            continue
+        which = ("from this message on" if s["whole"] else
+                 f"from this message to {name(s['last'])} (after which the clock steps back by as much), {s['n']},")
+        text = (f"{at}the header clock steps back (its stamp {s['jump_s']:+.3f} s after {name(s['prev'])}'s, received "
+                f"{s['rx_s']:+.3f} s after it; header minus receive time {s['latency_s'][0]:+.3f} s before, "
+                f"{s['latency_s'][1]:+.3f} s after) while the messages kept arriving; the stamps {which} are moved "
+                f"forward by {s['shift_s']:.3f} s onto the clock before the step")
+        say_doubted(meta, stream, label, text, HEADER_CLOCK_STEP_BACK, s["n"], stacklevel=stacklevel)
 
 
-def _why_not_header(header_ns: np.ndarray) -> str | None:
+#: A topic's header clock whose header minus receive time drifts (against the IMU's) by more than this over the
+#: topic is warned about and counted, s; it is taken out when the drift is also over :data:`HEADER_STEP_SPREADS` of
+#: that latency's spread about the line (a clock running fast or slow, not the recorder's jitter).
+CLOCK_DRIFT_NOTE_S = 0.1
+#: Messages a topic needs for its clock's drift to be judged.
+CLOCK_DRIFT_MIN_MESSAGES = 20
+HEADER_CLOCK_DRIFT = "stamped by a header clock drifting against the IMU's (moved onto its rate)"
+HEADER_CLOCK_DRIFT_UNTOLD = "stamped by a header clock that may drift against the IMU's (kept: too spread to tell)"
+
+
+def latency_rate(t_ns: np.ndarray, receive_ns: np.ndarray) -> tuple[float, float]:
+    """(how fast header minus receive time drifts, s per s of receive time (the straight line through it once its
+    jumps are taken out: :func:`latency_jumps`, a step being no drift), the spread about that line, s (1.4826 median
+    absolute deviation)) of a topic on header stamps ``t_ns`` received at ``receive_ns`` (ns); (0, 0) with under
+    :data:`CLOCK_DRIFT_MIN_MESSAGES` messages."""
+    t_ns, receive_ns = np.asarray(t_ns, np.int64), np.asarray(receive_ns, np.int64)
+    d = np.diff(t_ns)
+    if len(t_ns) < CLOCK_DRIFT_MIN_MESSAGES or not np.any(d > 0) or receive_ns[-1] <= receive_ns[0]:
+        return 0.0, 0.0
+    rx = (receive_ns - receive_ns[0]) / 1e9
+    latency = (t_ns - receive_ns) / 1e9
+    jumps = latency_jumps(latency, float(np.median(d[d > 0])) / 1e9)
+    for k in jumps:
+        latency[k:] -= latency[k] - latency[k - 1]
+    rate, c = np.polyfit(rx, latency, 1)
+    res = latency - (rate * rx + c)
+    return float(rate), 1.4826 * float(np.median(np.abs(res - np.median(res))))
+
+
+def why_not_header(header_ns: np.ndarray) -> str | None:
     """Why a stream's header stamps cannot be used (None when they can)."""
     if np.all(header_ns == 0):
         return "all header stamps are zero"
@@ -250,7 +348,7 @@ def choose_stamps(header_ns: np.ndarray | None, receive_ns: np.ndarray, meta: di
         why = "the message type has no header"
     else:
         header_ns = np.asarray(header_ns, np.int64)
-        why = _why_not_header(header_ns)
+        why = why_not_header(header_ns)
         if why is None:
             return header_ns, np.arange(len(header_ns)), "header"
         stalled = stall_restamped(header_ns, receive_ns, stream)
@@ -260,7 +358,7 @@ def choose_stamps(header_ns: np.ndarray | None, receive_ns: np.ndarray, meta: di
             t_ns, latency_s = _stall_stamps(t_ns, receive_ns, stalled)
         if (stalled is not None or back is not None) and np.all(np.diff(t_ns) > 0):
             if back is not None:
-                _say_steps_back(back[1], meta, stream, label)
+                say_steps_back(back[1], meta, stream, label)
             if stalled is not None:
                 k = int(np.flatnonzero(stalled)[0])
                 say_doubted(meta, stream, label, f"message {k}, field 'header.stamp': the header clock stalls: "

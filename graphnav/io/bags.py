@@ -397,7 +397,7 @@ def load_bag(path: str | Path, config: SensorConfig | None = None, topics: dict[
 
     ``atmospheric_pressure_configured``: subtract ``config.atmospheric_pressure_pa`` as given instead of
     estimating the surface pressure from the first seconds of the record."""
-    from graphnav.io.bag_stamps import compare_clocks, header_minus_receive_s
+    from graphnav.io.bag_stamps import compare_clocks, header_minus_receive_s, latency_rate
     path = Path(path)
     config = dataclasses.replace(config) if config is not None else SensorConfig()
     topics = topics or {}
@@ -408,6 +408,7 @@ def load_bag(path: str | Path, config: SensorConfig | None = None, topics: dict[
     steps: list = []
     stepped = conv.header_clock_steps_removed(imu_s, source, meta, steps)
     clock_s = header_minus_receive_s(stepped.t_ns, stepped.receive_ns, stepped.stamp_kind)
+    clock_rate = latency_rate(stepped.t_ns, stepped.receive_ns)[0] if stepped.stamp_kind == "header" else 0.0
     # the IMU's topic read again as the heading (an AHRS) moves with it; the other topics whose header clock stepped
     # with the IMU's move back with it, then each other topic's own header clock steps are taken out as the IMU's
     own: dict[int, Stream] = {id(imu_s): stepped}
@@ -415,7 +416,9 @@ def load_bag(path: str | Path, config: SensorConfig | None = None, topics: dict[
         for s in found:
             if kind != "imu" and id(s) not in own:      # a topic read for two streams is moved (and warned) once
                 shared = conv.shared_clock_step_removed(s, steps, kind, source, meta)
-                own[id(s)] = conv.header_clock_steps_removed(shared, source, meta, kind=kind, clock_s=clock_s)
+                own[id(s)] = conv.header_clock_drift_removed(
+                    conv.header_clock_steps_removed(shared, source, meta, kind=kind, clock_s=clock_s), source, meta,
+                    kind, clock_rate)
     streams = {kind: [own.get(id(s), s) for s in found] for kind, found in streams.items()}
     imu_s = stepped
     dvl_s = streams["dvl"][0] if "dvl" in topics else _pick_one("dvl", streams["dvl"], source)

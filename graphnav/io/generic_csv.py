@@ -149,6 +149,21 @@ DELIMITERS = (",", ";", "\t")
 _INTEGER_PART, _FRACTION_PART = re.compile(r"[+-]?\d+"), re.compile(r"\d+(?:[eE][+-]?\d+)?")
 
 
+#: Why a quoted cell holding a number with a decimal comma (``"0,5"``) of a ','-separated file is refused: quoted,
+#: it is one cell, but ``"1,250"`` may be 1250 with a thousands separator as well as 1.25.
+QUOTED_DECIMAL_COMMA = "a decimal comma in a quoted cell of a ','-separated file"
+
+
+def decimal_comma_number(cell: str) -> float | None:
+    """The number ``cell`` holds written with one decimal comma (``0,5``: 0.5), None when it holds no such number."""
+    if cell.count(",") != 1 or "." in cell:
+        return None
+    try:
+        return float(cell.replace(",", "."))
+    except ValueError:
+        return None
+
+
 def _is_number(cell: str) -> bool:
     try:
         float(cell)
@@ -165,7 +180,7 @@ def _zero_led_digits(row: list[str]) -> bool:
                for a, b in zip(cells, cells[1:]))
 
 
-def _split_numbers(row: list[str], numeric: list[bool]) -> bool:
+def split_numbers(row: list[str], numeric: list[bool]) -> bool:
     """True when ``row`` (cells of a comma-separated row) needs and allows joining adjacent cells that are a number's
     integer part and a decimal comma's digits to be one cell per column, with a number in every column ``numeric``
     marks: the cells past the header could then be halves of numbers."""
@@ -233,15 +248,15 @@ class _Table:
                         "tab), or a column missing from the header", str(self.path), line, self.header[-1])
 
     def _decimal_comma_lines(self, wide: list) -> list[tuple[int, int]]:
-        """(line, cells) of the ``wide`` rows (line, cells, row) a decimal comma can explain (:func:`_split_numbers`).
+        """(line, cells) of the ``wide`` rows (line, cells, row) a decimal comma can explain (:func:`split_numbers`).
         Where most of the first thousand cannot, the width most of those have is a logger's unnamed columns after
         the header's: a row is then judged against that width (a decimal comma in it still makes it wider)."""
         columns = self._numeric_columns()
-        explained = [_split_numbers(row, columns) for _, _, row in wide[:1000]]
+        explained = [split_numbers(row, columns) for _, _, row in wide[:1000]]
         if 2 * sum(explained) < len(explained):
             appended = Counter(cells for (_, cells, _), e in zip(wide, explained) if not e).most_common(1)[0][0]
             columns = columns + [False] * (appended - len(columns))
-        return [(line, cells) for line, cells, row in wide if _split_numbers(row, columns) or _zero_led_digits(row)]
+        return [(line, cells) for line, cells, row in wide if split_numbers(row, columns) or _zero_led_digits(row)]
 
     def _numeric_columns(self) -> list[bool]:
         """Which header columns hold numbers in most of the first thousand rows as wide as the header or narrower
@@ -260,16 +275,10 @@ class _Table:
         try:
             return float(cell) if cell else np.nan
         except ValueError:
-            comma = cell.count(",") == 1 and "." not in cell
-            try:
-                value = float(cell.replace(",", ".")) if comma else None
-            except ValueError:
-                value = None
+            value = decimal_comma_number(cell)
             if value is not None and self.delimiter == ",":
-                # quoted, so one cell: "1,250" may be 1250 with a thousands separator as well as 1.25
-                raise DataError(f"not a number: {cell!r}, a decimal comma in a quoted cell of a ','-separated file "
-                                f"(write decimal points, or separate the cells by ';' or tab)", str(self.path), line,
-                                name) from None
+                raise DataError(f"not a number: {cell!r}, {QUOTED_DECIMAL_COMMA} (write decimal points, or separate "
+                                "the cells by ';' or tab)", str(self.path), line, name) from None
             if value is None:
                 raise DataError(f"not a number: {cell!r}", str(self.path), line, name) from None
             self.decimal_commas += 1
@@ -441,7 +450,7 @@ def load_csv_mission(data: str | Path, config: SensorConfig, pd0_file: Path | No
     rows = np.hstack([v["f_b"], v["omega_b"]])
     t_imu, rows, imu_lines = refuse_rows(meta, "imu", imu_unmeasured(t_imu, v["f_b"], v["omega_b"], fields, str(path),
                                                                      v["_lines"]),
-                                         str(path), v["_lines"], t_imu, rows, v["_lines"])
+                                         str(path), v["_lines"], t_imu, rows, v["_lines"], fields=fields)
     f_b = rows[:, :3] * declared_scale(spec, "accel_unit", ACCEL_UNITS, "m/s^2", "csv_columns.imu")
     omega_b = rows[:, 3:] * declared_scale(spec, "gyro_unit", GYRO_UNITS, "rad/s", "csv_columns.imu")
     declared = {k: spec[f"{k}_unit"] for k in ("accel", "gyro") if f"{k}_unit" in spec}
@@ -612,7 +621,7 @@ def _screened_imu(t: np.ndarray, f_b: np.ndarray, omega_b: np.ndarray, lines: np
     t, f_b, omega_b = refuse_rows(meta, "imu", imu_implausible(t, f_b, omega_b, config, fields, meta, str(path),
                                                                (dvl.t, ping_velocity_b(dvl, config.dvl)), lines,
                                                                unmeasured=False),
-                                  str(path), lines, t, f_b, omega_b)
+                                  str(path), lines, t, f_b, omega_b, fields=fields)
     meta["imu_screened"] = True
     t0 = meta["t0_s"] = float(t[0])
     for span in meta.get("imu_shocks", []):

@@ -97,6 +97,7 @@ the one-call ``load_mission`` are :mod:`graphnav.missions`').
 """
 from __future__ import annotations
 
+import csv
 import dataclasses
 import io
 import re
@@ -346,19 +347,30 @@ def _empty_as_nan(line: str, columns: list[int]) -> str:
 
 
 def _raise_bad_lines(source: str, body: list[str], line_no: np.ndarray, columns) -> None:
+    """DataError naming each of the ``body`` lines (file lines ``line_no``) that does not hold one number per column
+    of ``columns``: a line of too few or too many fields, or a field that is no number. A quoted field holding a
+    separator is one field (``"0,5"``, a decimal comma: told so, with what to write, as a column map's)."""
+    from graphnav.io.generic_csv import QUOTED_DECIMAL_COMMA, decimal_comma_number, split_numbers
     problems = []
     for n, s in zip(line_no, body):
         fields = s.split(",")
+        quoted = next(csv.reader([s])) if '"' in s and len(fields) != len(columns) else fields
+        fields = quoted if len(quoted) == len(columns) else fields
         if len(fields) != len(columns):
             what = "truncated line" if len(fields) < len(columns) else "too many fields"
+            split = len(fields) > len(columns) and split_numbers(fields, [True] * len(columns))
             problems.append((int(n), columns[min(len(fields), len(columns)) - 1] if len(fields) < len(columns)
-                             else columns[-1], f"{what}: {len(fields)} fields, expected {len(columns)}"))
+                             else columns[-1], f"{what}: {len(fields)} fields, expected {len(columns)}"
+                             + ("; likely a decimal comma (write decimal points: an A-KIT file's separator is ',')"
+                                if split else "")))
             continue
         for name, f in zip(columns, fields):
             try:
                 float(f)
             except ValueError:
-                problems.append((int(n), name, f"not a number: {f.strip()!r}"))
+                comma = (f", {QUOTED_DECIMAL_COMMA} (write decimal points: an A-KIT file's separator is ',')"
+                         if decimal_comma_number(f.strip()) is not None else "")
+                problems.append((int(n), name, f"not a number: {f.strip()!r}{comma}"))
     if not problems:  # loadtxt failed on something the checks above did not catch
         raise DataError("cannot parse the file as numbers", source)
     _raise_problems(source, problems)
@@ -454,7 +466,7 @@ def read_akit(folder: str | Path, *, rescale_stamps: bool = True, repair: bool =
         on_imu_axes = (dvl[:, 0], dvl[:, 1:4] @ cfg.dvl.C_d_b.T)
     imu, = refuse_rows(meta, "imu", imu_implausible(imu[:, 0], imu[:, 1:4], imu[:, 4:7], cfg, AKIT_COLUMNS["IMU"][1:],
                                                     meta, str(files["IMU"]), on_imu_axes, lines["imu"]),
-                       str(files["IMU"]), lines["imu"], imu)
+                       str(files["IMU"]), lines["imu"], imu, fields=AKIT_COLUMNS["IMU"][1:])
     if gt is not None:
         gt, = refuse_rows(meta, "gt", gt_refused, str(files["GT"]), lines["gt"], gt)
     return AkitRaw(imu, dvl, gt, files, meta, lines["dvl"])
@@ -470,7 +482,11 @@ def _akit_units(imu: np.ndarray, dvl: np.ndarray, gt: np.ndarray | None, lines: 
         if a is not None:
             a[:, 0] = stamps_in_seconds(a[:, 0], stream, str(files[kind]), meta, rate, field=AKIT_COLUMNS[kind][0],
                                         lines=lines[stream])
-    rows = np.flatnonzero(np.all(np.isfinite(imu[:, 1:7]), axis=1))   # a row with a NaN is refused afterwards
+    # a row with a NaN, a logger's filler or a dead accelerometer's zeros is refused afterwards (imu_unmeasured): no
+    # measurement in any unit, the units are judged without them (a dead accelerometer was 'not gravity in m/s^2')
+    finite = np.all(np.isfinite(imu[:, 1:7]), axis=1)
+    measured = finite & np.any(imu[:, 1:4] != 0.0, axis=1)
+    rows = np.flatnonzero(measured if measured.any() else finite)
     f_b, omega_b = imu_units(imu[rows, 0], imu[rows, 1:4], imu[rows, 4:7], str(files["IMU"]), meta,
                              fields=AKIT_COLUMNS["IMU"][1:7])
     imu[rows, 1:7] = np.hstack([f_b, omega_b])
@@ -1212,8 +1228,10 @@ def screen_mission(mission: Mission) -> Mission:
     whole ping: one beam the instrument got wrong makes the others suspect, as on the Navigator's stream), pings logged
     as exactly 0 without bottom lock (:func:`graphnav.core.screening.no_bottom_lock`) and pings outside its envelope
     are marked invalid; each counted with its reason in ``meta["streams"]`` and warned about; DVL outages are
-    warned about; more than half of a stream refused is a DataError. Returns the screened mission (the same
-    one when nothing was refused)."""
+    warned about; more than half of a stream refused is a DataError. The IMU is screened once: a reader that
+    screened it (``meta["imu_screened"]``), or the rows holding no measurement (``meta["imu_unmeasured_screened"]``,
+    a bag's), is not screened for it again, nor is a mission this screened already. Returns the screened mission (the
+    same one when nothing was refused)."""
     meta = mission.meta
     cfg = mission.config
     for name, stream in (("imu", mission.imu), ("dvl", mission.dvl), ("depth", mission.depth), ("gt", mission.gt)):
@@ -1228,6 +1246,7 @@ def screen_mission(mission: Mission) -> Mission:
                                                   dvl=(dvl.t, ping_velocity_b(dvl, cfg.dvl)), unmeasured=unmeasured),
                      imu.source, t=imu.t)
         imu = _kept(meta, "imu", imu, bad)
+        meta["imu_screened"] = True         # once: a mission screened again (its meta with it) keeps its IMU
     beam_bad = beams_out_of_range(dvl.beams, dvl.valid, cfg.dvl)
     masks = {f"beam beyond {cfg.dvl.max_speed_mps:g} m/s": beam_bad.any(axis=1)}
     valid = dvl.valid & ~beam_bad

@@ -37,7 +37,9 @@ then equals RDI's bottom-track beam velocity as recorded, and a convex head has 
   file that ends inside an ensemble (a copy or download cut short) has that ensemble left out, warned about and
   counted (``counts``, and a note of the DVL stream), as a corrupt ensemble (wrong checksum) is, and so are
   bytes before the first ensemble (a logger that started mid-ensemble or wrote a preamble), bytes between two whole
-  ensembles (a CR LF or time tag a logger wrote; both ensembles are read) and an ensemble written
+  ensembles (a CR LF or time tag a logger wrote, a header written twice; both ensembles are read), bytes after the
+  last one and a second recording joined behind the first without a cut (its numbers start again: warned and
+  read on where its clock runs on, refused where it runs back) and an ensemble written
   again byte for byte anywhere after itself (a logger's retry, a file appended to itself: the same ping twice,
   which dolfyn cannot read or reads as time running back); an ensemble cut short by the next one whose bytes are
   those of an ensemble read whole (or of the one the file ends in) is such a copy too: the cut end of a file with a
@@ -48,11 +50,12 @@ then equals RDI's bottom-track beam velocity as recorded, and a convex head has 
   counted; ensembles that share a time (a clock of 1 s resolution on an instrument pinging faster) are ordered by
   their numbers and keep that time (a mission's DVL stream, :func:`read_pd0`, spreads them within the clock's
   tick: :func:`spread_shared_times`, warned and counted as doubted; a clock that stood still for several pings on
-  a clock that otherwise gives each ping its own time, then jumped, has them spread up to the jump, said so; a DVL
-  file dead-reckoned alone is spread alike); a file whose clock and numbers disagree (a clock
-  set back mid-file, two different ensembles with one time and one number, two recordings overlapping in time) is
-  refused naming the ensembles (:func:`_time_order` says why), and so is one of fewer than
-  :data:`MIN_ENSEMBLES` ensembles, which dolfyn cannot read.
+  a clock that otherwise gives each ping its own time, or more than :data:`FROZEN_CLOCK_PINGS` on any clock, has
+  them spread up to the jump at the ping period at most, dead-reckoned at it after the clock's last time, and put
+  after the pause between bursts it stood across, said so; a DVL file dead-reckoned alone is spread alike); a file
+  whose clock and numbers disagree (a clock set back mid-file, two different ensembles with one time and one number,
+  two recordings overlapping in time) is refused naming the ensembles (:func:`_time_order` says why), and so is one
+  of fewer than :data:`MIN_ENSEMBLES` ensembles, which dolfyn cannot read.
 * depth from the pressure sensor (dbar -> m with the configured water density). A pressure word of
   0xFFFFFFFF (no sensor: 4.29e6 dbar) or a depth outside :data:`DEPTH_RANGE_M` is invalid, counted, warned. A
   pressure is positive down by its physics, so there is no convention to declare (``csv_columns.depth.positive`` is
@@ -142,7 +145,11 @@ class Pd0Scan:
             number and clock: a file cut there with another recording joined behind (or bytes a logger lost), left
             out; not in ``bad_checksum``. One cut before its number and clock cannot be told from a corrupt one.
         stray: ``(byte offset, bytes, its first 16 bytes)`` of each run of bytes between two ensembles that belongs
-            to neither (a CR LF or a time tag a logger wrote between them), skipped.
+            to neither (a CR LF or a time tag a logger wrote between them, a header written again before the whole
+            ensemble, bytes before the ensemble the file ends in), skipped.
+        tail_bytes: bytes after the last ensemble of a file that ends in no cut one (a CR LF a logger wrote), skipped.
+        joins: ``(number, byte offset, number, byte offset, gap s)`` of each place a second recording begins behind the
+            first without a cut: the ensemble numbers start again and the clock jumps on (:func:`_joins`).
     """
 
     ensembles: int
@@ -163,6 +170,8 @@ class Pd0Scan:
     cut_copies: list = dataclasses.field(default_factory=list, repr=False)
     stray: list = dataclasses.field(default_factory=list, repr=False)
     cut_short: list = dataclasses.field(default_factory=list, repr=False)
+    tail_bytes: int = 0
+    joins: list = dataclasses.field(default_factory=list, repr=False)
 
 
 def _ensembles(raw: bytes, limit: int | None = None):
@@ -235,14 +244,40 @@ def scan_pd0(path: str | Path) -> Pd0Scan:
     copied = {start for _, start, _, _ in cut_copies}
     cut_short = [(_leader(raw[a:stop], 0)[0], a, stop - a, length, stop) for a, length, stop in cut
                  if a not in copied and _leader(raw[a:stop], 0)[0] >= 0]
+    headers = _headers_again(raw, [c for c in cut if c[0] not in copied and _leader(raw[c[0]:c[2]], 0)[0] < 0], spans)
+    last = max(end, bad_end)
+    if cut_bytes and cut_offset > last and spans:        # bytes between the last whole ensemble and the cut one
+        stray.append((last, cut_offset - last, raw[last:min(cut_offset, last + 16)]))
+    stray = sorted(stray + [(a, n, raw[a:a + min(n, 16)]) for a, n in headers])
+    tail = len(raw) - last if spans and not cut_bytes else 0
     copies = sorted(copies + [(number, start) for number, start, _, _ in cut_copies], key=lambda c: c[1])
     numbers, seconds = (np.array(x) for x in zip(*[_leader(raw, a) for a, _ in spans])) if spans else ([], [])
     order, note, unplaced = _time_order(np.asarray(numbers, int), np.asarray(seconds, float), spans)
     spans = [spans[i] for i in order]
-    return Pd0Scan(len(spans), len(bad) - len(cut_copies) - len(cut_short), len(raw) - end if spans else len(raw),
+    joins = _joins(np.asarray(numbers, int)[order], np.asarray(seconds, float)[order], spans) if not unplaced else []
+    return Pd0Scan(len(spans), len(bad) - len(cut_copies) - len(cut_short) - len(headers),
+                   len(raw) - end if spans else len(raw),
                    _beam_matrix(raw, spans[0][0]) if spans else None, spans, cut_bytes, cut_length, cut_offset,
                    first or 0, len(copies), [int(numbers[i]) for i in order], copies,
-                   int((order != np.arange(len(order))).sum()), note, unplaced, cut_copies, stray, cut_short)
+                   int((order != np.arange(len(order))).sum()), note, unplaced, cut_copies, stray, cut_short, tail,
+                   joins)
+
+
+def _headers_again(raw: bytes, cut: list, spans: list) -> list:
+    """``(byte offset, bytes)`` of each ensemble start cut before its number and clock (``cut``: ``[start, length
+    with the checksum, where the next one starts]``) that is the first bytes of the whole ensemble right behind it
+    again, between two whole ensembles (``spans``, in file order) whose numbers run on by one: a header a logger
+    wrote and then wrote again with the whole ensemble (a retry), no ping lost, so bytes between ensembles, not a
+    corrupt ensemble. Where the numbers skip one, that ping's rest was lost and it stays a corrupt one."""
+    ends = {b: a for a, b in spans}
+    starts = {a for a, _ in spans}
+    found = []
+    for start, _, stop in cut:
+        n = stop - start
+        if stop in starts and start in ends and raw[start:stop] == raw[stop:stop + n] \
+                and (_leader(raw, stop)[0] - _leader(raw, ends[start])[0]) & 0xFFFF == 1:
+            found.append((start, n))
+    return found
 
 
 def _cut_copies(raw: bytes, cut: list, spans: list, end_cut: int | None) -> list:
@@ -349,8 +384,42 @@ def _time_order(numbers: np.ndarray, t: np.ndarray, spans: list) -> tuple[np.nda
     moved = in_time != order
     if not moved.any():            # only restarts or roll-overs within one second: the file's order is the time's
         return order, "", ""
+    joined = next((int(i) for i in back if t[nxt[int(i)]] < t[i] and not _runs_on(numbers[i], numbers[nxt[int(i)]])),
+                  None)
+    if joined is not None and _numbers_back(numbers[in_time]) >= _numbers_back(numbers):   # sorting would not help
+        i, j = joined, nxt[joined]
+        return order, note, (f"{named[j]} after {named[i]} starts the ensemble numbers again and its clock is "
+                             f"{t[i] - t[j]:.2f} s before: a second recording joined behind the first without a cut "
+                             "(its clock restarted or was set back), which sorting by the clock would interleave or "
+                             "put first; load each recording from a file of its own (the bytes before "
+                             f"{spans[j][0]} and from {spans[j][0]} on)")
     i = next(int(i) for i in back if moved[i] or moved[nxt[int(i)]])
     return in_time, _back_note(named, t, i, nxt[i]), ""
+
+
+def _runs_on(before: int, after: int) -> bool:
+    """Whether ensemble number ``after`` follows ``before`` (ensembles lost between allowed, across a roll-over of the
+    low word too): a step forward of less than half of 65536."""
+    return 0 < (int(after) - int(before)) & 0xFFFF <= 0x8000
+
+
+#: A second recording joined behind the first without a cut: the ensemble numbers start again and the clock jumps
+#: on by more than this many of the file's median steps (an instrument restarted within a ping or two keeps its time).
+JOIN_GAP_STEPS = 10
+
+
+def _joins(numbers: np.ndarray, t: np.ndarray, spans: list) -> list:
+    """``(number, byte offset, number, byte offset, gap s)`` of each place where, in time order (``numbers``, clock
+    ``t`` Unix s, ``spans``), the ensemble numbers start again (not after the one before) while the clock jumps on by
+    more than :data:`JOIN_GAP_STEPS` median steps: a second recording (the instrument restarted later, files of two
+    recordings concatenated) joined behind the first without a cut."""
+    if len(t) < 3 or min(numbers) < 0:
+        return []
+    dt_s = np.diff(t)
+    step = float(np.median(dt_s[dt_s > 0])) if np.any(dt_s > 0) else 0.0
+    return [(int(numbers[i]), spans[i][0], int(numbers[i + 1]), spans[i + 1][0], float(dt_s[i]))
+            for i in np.flatnonzero(dt_s > JOIN_GAP_STEPS * step)
+            if not _runs_on(numbers[i], numbers[i + 1])]
 
 
 def _rolled_over(numbers: np.ndarray, t: np.ndarray) -> np.ndarray:
@@ -664,6 +733,10 @@ LEADING_BYTES = "byte(s) before the first ensemble (skipped)"
 CUT_SHORT_ENSEMBLE = "ensemble cut short by the next one (left out)"
 #: The :attr:`DvlLog.counts` key of the bytes between two ensembles that belong to neither (skipped; bytes, not pings).
 STRAY_BYTES = "byte(s) between ensembles (skipped)"
+#: The :attr:`DvlLog.counts` key of the bytes after the last ensemble of a file ending in no cut one (skipped; bytes).
+TRAILING_BYTES = "byte(s) after the last ensemble (skipped)"
+#: The :attr:`DvlLog.counts` key of the places a second recording begins behind another without a cut (read on).
+JOINED_RECORDING = "recording joined behind another (numbers start again)"
 #: The :attr:`DvlLog.counts` key of the ensembles written again, byte for byte (left out, not read).
 REPEATED_ENSEMBLE = "ensemble written twice (copy left out)"
 #: The :attr:`DvlLog.counts` key of the ensembles stored out of time order (moved to their time, read).
@@ -700,9 +773,31 @@ def _warn_stray(scan: Pd0Scan, source: str) -> None:
     at, n, head = scan.stray[0]
     after = next((f"after ensemble {k} " for k, (_, b) in zip(scan.numbers, scan.spans) if b == at), "")
     more = f" and {len(scan.stray) - 1} more place(s)" if len(scan.stray) > 1 else ""
+    cut = scan.cut_bytes and any(a + k == scan.cut_offset for a, k, _ in scan.stray)
+    either = ("the ensembles either side are whole (their checksums hold) and read" if not cut else "the ensembles "
+              "before them are whole (their checksums hold) and read; the last ones lie before the ensemble the file "
+              "ends in, cut")
     warnings.warn(f"{source}: {sum(k for _, k, _ in scan.stray)} byte(s) between ensembles belong to none and are "
-                  f"skipped: {n} {after}at byte {at} ({head!r}{'...' if n > len(head) else ''}){more}; the ensembles "
-                  "either side are whole (their checksums hold) and read", RuntimeWarning, stacklevel=4)
+                  f"skipped: {n} {after}at byte {at} ({head!r}{'...' if n > len(head) else ''}){more}; {either}",
+                  RuntimeWarning, stacklevel=4)
+
+
+def _warn_joins(scan: Pd0Scan, source: str) -> None:
+    """Warn that a second recording begins behind the first without a cut (:attr:`Pd0Scan.joins`), naming where."""
+    n, a, m, b, gap = scan.joins[0]
+    more = f" and {len(scan.joins) - 1} more" if len(scan.joins) > 1 else ""
+    warnings.warn(f"{source}: {len(scan.joins)} recording(s) joined behind another without a cut: ensemble {m} (byte "
+                  f"{b}) after ensemble {n} (byte {a}) starts the ensemble numbers again {_gap_words(gap)} later"
+                  f"{more}; read as one log with a gap of no pings there (to load one recording, cut the file at byte "
+                  f"{b})", RuntimeWarning, stacklevel=4)
+
+
+def _gap_words(gap_s: float) -> str:
+    """A gap in s as a user reads it: seconds, minutes, hours or days."""
+    for unit, size in (("day(s)", 86400.0), ("h", 3600.0), ("min", 60.0)):
+        if gap_s >= size:
+            return f"{gap_s / size:.1f} {unit}"
+    return f"{gap_s:.2f} s"
 
 
 def _warn_leading(scan: Pd0Scan, source: str) -> None:
@@ -714,13 +809,22 @@ def _warn_leading(scan: Pd0Scan, source: str) -> None:
                   stacklevel=3)
 
 
+def _warn_trailing(scan: Pd0Scan, source: str) -> None:
+    """Warn that bytes that are no ensemble follow the last one (a logger's CR LF or time tag at the end)."""
+    n = scan.tail_bytes
+    warnings.warn(f"{source}: the {n} byte(s) after the last ensemble are no PD0 ensemble and are skipped (a logger's "
+                  "CR LF or time tag at the end of the file)", RuntimeWarning, stacklevel=3)
+
+
 def left_out_notes(counts: dict) -> list[str]:
     """The notes of a DVL stream on the parts of the file that were left out or moved before any ping was read
     (corrupt ensembles, copies, ensembles out of time order, one cut by the end of the file, bytes before the
     first and between two), from :attr:`DvlLog.counts`."""
     return [f"{counts[key]} {key}" for key in ("bad checksum (ensemble left out)", CUT_SHORT_ENSEMBLE,
                                                REPEATED_ENSEMBLE, SORTED_ENSEMBLE,
-                                               CUT_ENSEMBLE, LEADING_BYTES, STRAY_BYTES) if counts.get(key)]
+                                               CUT_ENSEMBLE, LEADING_BYTES, STRAY_BYTES, TRAILING_BYTES,
+                                               JOINED_RECORDING)
+            if counts.get(key)]
 
 
 def _warn_counts(counts: dict, source: str) -> None:
@@ -800,7 +904,12 @@ def _dataset(path: Path, scan: Pd0Scan):
         warnings.warn(f"{source}: {scan.repeated} ensemble(s) written twice ({how}: a logger's retry, or a file "
                       f"appended to itself) left out: {_copies_named(scan.copies)}; {scan.ensembles} read once"
                       + _cut_copies_named(scan.cut_copies), RuntimeWarning, stacklevel=3)
+    change = _instrument_change(path.read_bytes(), scan)
+    one_instrument = ("a DVL log is one instrument's (the first one's frame and beam geometry would be taken for the "
+                      "pings of both)")
     if scan.unplaced:
+        if change:          # two instruments' recordings joined: why their clocks and numbers disagree
+            raise DataError(f"{change}; {one_instrument}", source)
         raise DataError(f"the ensembles cannot be put in time order: {scan.unplaced}", source, field="time")
     if scan.moved:
         warnings.warn(f"{source}: {scan.moved} ensemble(s) stored out of time order ({scan.order_note}) sorted by "
@@ -813,9 +922,10 @@ def _dataset(path: Path, scan: Pd0Scan):
                         "ensemble only when another follows it, and its ping rate from two)", source)
     if scan.stray:
         _warn_stray(scan, source)
+    if scan.joins:
+        _warn_joins(scan, source)
     if scan.cut_short:
         _warn_cut_short(scan, source)
-    change = _instrument_change(path.read_bytes(), scan)
     try:
         if scan.bad_checksum or scan.repeated or scan.moved or scan.stray or scan.cut_short:
             ds = _read_good_ensembles(path, scan)
@@ -826,8 +936,7 @@ def _dataset(path: Path, scan: Pd0Scan):
             raise
         raise DataError(f"{change}; dolfyn reads one instrument per file ({exc.message})", source) from None
     if change:          # dolfyn read them as one: the first one's frame, beams and geometry would be taken for all
-        raise DataError(f"{change}; a DVL log is one instrument's (the first one's frame and beam geometry would be "
-                        "taken for the pings of both)", source)
+        raise DataError(f"{change}; {one_instrument}", source)
     if "vel_bt" not in ds:
         raise DataError("no bottom track in the file (PD0 block 0x0600 absent): an ADCP current-profile "
                         "recording without bottom tracking gives no velocity over the seabed", source,
@@ -935,6 +1044,11 @@ def read_pd0_log(path: str | Path, config: SensorConfig | None = None) -> DvlLog
     if scan.leading_bytes:
         counts[LEADING_BYTES] = scan.leading_bytes
         _warn_leading(scan, source)
+    if scan.joins:
+        counts[JOINED_RECORDING] = len(scan.joins)
+    if scan.tail_bytes:
+        counts[TRAILING_BYTES] = scan.tail_bytes
+        _warn_trailing(scan, source)
     if scan.cut_bytes:
         counts[CUT_ENSEMBLE] = 1
         _warn_cut(scan, source)
@@ -1044,29 +1158,82 @@ def spread_shared_times(t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     a time) gives several ensembles one time, which a mission's DVL stream (one stamp per ping) cannot hold. The
     ``k`` pings at a time ``T`` are put ``min(T' - T, tick) / k`` apart from ``T`` in ensemble order, ``T'`` the next
     time and ``tick`` the clock's: the median step between its distinct times, at most the second a clock of whole
-    seconds vouches for (pings in bursts would otherwise be spread over the pause between bursts), RDI's 0.01 s when it
-    gives one time only. A gap after them is not spread over. Pings of a clock that stood still
-    (:func:`_stalled_groups`) are put ``min((T' - T) / k, period)`` apart instead: they were taken at the ping period up
-    to the time the clock jumped to."""
-    spread, moved, _ = _spread(t)
+    seconds vouches for (pings in bursts would otherwise be spread over the pause between bursts) or 2 s for one
+    stepping by 2 s (:func:`_clock_resolution`), RDI's 0.01 s when it gives one time only. A gap after them is not
+    spread over. Pings of a clock that stood still (:func:`_stalled_groups`) are put ``min((T' - T) / k, period)``
+    apart instead: they were taken at the ping period up to the time the clock jumped to, and after its last time at
+    the period (dead-reckoned); those of a stall across the pause between bursts are put after it
+    (:func:`_after_pauses`)."""
+    spread, moved, _, _ = _spread(t)
     return spread, moved
 
 
-def _spread(t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """:func:`spread_shared_times`' stamps and pings moved, and (M,) bool the pings moved because the clock stood
-    still (:func:`_stalled_groups`), of stamps ``t`` (s, in time order)."""
+def _spread(t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
+    """:func:`spread_shared_times`' stamps and pings moved, (M,) bool the pings moved because the clock stood still
+    (:func:`_stalled_groups`), and the ping period they were spread at (s, NaN when none), of stamps ``t`` (s, in
+    time order)."""
     t = np.asarray(t, float)
     if len(t) < 2 or np.all(np.diff(t) > 0):
-        return t, np.zeros(len(t), bool), np.zeros(len(t), bool)
+        return t, np.zeros(len(t), bool), np.zeros(len(t), bool), float("nan")
     starts, sizes, room = _time_groups(t)
+    resolution = _clock_resolution(t[starts])
     tick = float(np.median(room[:-1])) if len(starts) > 1 else 0.01
-    if np.all(t[starts] == np.round(t[starts])):
-        tick = min(tick, WHOLE_SECOND_TICK_S)
+    if resolution >= WHOLE_SECOND_TICK_S:
+        tick = min(tick, resolution)
     step = np.minimum(room, tick) / sizes
-    stalled, period = _stalled_groups(t, starts, sizes, room)
+    stalled, period = _stalled_groups(sizes, room, resolution)
     step[stalled] = np.minimum(room[stalled] / sizes[stalled], period)
     rank = np.arange(len(t)) - np.repeat(starts, sizes)
-    return t + rank * np.repeat(step, sizes), rank > 0, np.repeat(stalled, sizes) & (rank > 0)
+    spread = _after_pauses(t, t + rank * np.repeat(step, sizes), (starts, sizes, room), stalled, period)
+    return spread, rank > 0, np.repeat(stalled, sizes) & (rank > 0), period
+
+
+#: A step of a clock that runs longer than this many ping periods is a pause between bursts of pings.
+PAUSE_PERIODS = 2.0
+
+
+def _after_pauses(t: np.ndarray, spread: np.ndarray, groups: tuple, stalled: np.ndarray, period: float
+                  ) -> np.ndarray:
+    """``spread`` (s) with the pings of a clock that stood still across the pause between two bursts put after it:
+    on an instrument pinging in bursts of ``n`` (the pings between the pauses where the clock ran, the same number
+    each time), the stall's pings from the next burst on are taken at the ``period`` (s) up to the time the clock
+    jumped to, instead of on from its stalled time (which put the next burst's first ping a pause early). ``groups``
+    are :func:`_time_groups`' runs, ``stalled`` which stood still (:func:`_stalled_groups`)."""
+    starts, sizes, room = groups
+    if not stalled.any() or not np.isfinite(period):
+        return spread
+    pauses = starts[~stalled & (sizes == 1) & np.isfinite(room) & (room > PAUSE_PERIODS * period)]
+    if len(pauses) < 2:
+        return spread
+    burst = int(np.min(np.diff(pauses)))
+    if burst < 2 or np.any(np.diff(pauses) % burst):
+        return spread
+    spread = spread.copy()
+    for g in np.flatnonzero(stalled & np.isfinite(room) & (room > (sizes + PAUSE_PERIODS) * period)):
+        first, end = starts[g], starts[g] + sizes[g]
+        before = pauses[pauses < first]
+        if not len(before):
+            continue
+        pause = before[-1] + burst * int(np.ceil((first - before[-1]) / burst))      # the last ping of its burst
+        if pause < end - 1:
+            after = np.arange(pause + 1, end)
+            spread[after] = t[first] + room[g] - (end - after) * period
+    return spread
+
+
+#: The tick of a clock whose every time is an even second and whose times step by 2 s (DOS/FAT time, which a
+#: logger's file system keeps to 2 s): the true time of a ping it stamps lies in the 2 s after.
+EVEN_SECOND_TICK_S = 2.0
+
+
+def _clock_resolution(times: np.ndarray) -> float:
+    """What a clock's distinct ``times`` (Unix s, increasing) vouch for, s: RDI's 0.01 s, a second for a clock of whole
+    seconds (hundredths zero), :data:`EVEN_SECOND_TICK_S` for one whose steps are all whole multiples of 2 s and no
+    coarser (a clock of whole seconds in bursts at a fixed interval steps by the interval: it keeps the second)."""
+    if not np.all(times == np.round(times)):
+        return 0.01
+    steps = np.round(np.diff(times)).astype(np.int64)
+    return EVEN_SECOND_TICK_S if len(steps) and np.gcd.reduce(steps) == EVEN_SECOND_TICK_S else WHOLE_SECOND_TICK_S
 
 
 def _time_groups(t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -1082,25 +1249,39 @@ def _time_groups(t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 STALL_MARGIN_PERIODS = 0.5
 
 
-def _stalled_groups(t: np.ndarray, starts: np.ndarray, sizes: np.ndarray, room: np.ndarray
-                    ) -> tuple[np.ndarray, float]:
-    """Which runs of one time (:func:`_time_groups`) are a clock that stood still, and the ping period (s). A clock
-    that gives most pings a time of their own (at least half of the runs single) measures the ping period (the
-    median step after a single ping); a run of ``k`` pings at one time on it could only have been taken within the
-    clock's resolution (1 s for a clock of whole seconds, RDI's 0.01 s else) if ``(k - 1)`` periods fit in it:
-    more, by :data:`STALL_MARGIN_PERIODS`, and the clock stood still while the instrument pinged on. None on a
-    clock slower than the pings (most runs shared), whose shared times are its ticks."""
-    single = (sizes == 1)[:-1]
-    if len(starts) < 3 or single.sum() < 0.5 * len(single):
-        return np.zeros(len(starts), bool), float("nan")
-    period = float(np.median(room[:-1][single]))
-    resolution = WHOLE_SECOND_TICK_S if np.all(t[starts] == np.round(t[starts])) else 0.01
-    return (sizes - 1 - STALL_MARGIN_PERIODS) * period > resolution, period
-
-
-#: More pings than a DVL takes within one tick of its clock (1 s at most; DVLs ping at up to about 10 Hz): when
-#: every ping of a log carries one time, its clock did not run.
+#: More pings than a DVL takes within one tick of its clock (2 s at most; DVLs ping at up to about 10 Hz): when
+#: every ping of a log carries one time, its clock did not run; a run of more at one time is a clock that stood still.
 FROZEN_CLOCK_PINGS = 20
+
+
+def _own_times(sizes: np.ndarray) -> bool:
+    """Whether a clock gives most pings a time of their own: at least half of its runs of one time (their ``sizes``,
+    :func:`_time_groups`) but the last single, of three runs or more."""
+    single = (sizes == 1)[:-1]
+    return len(sizes) >= 3 and single.sum() >= 0.5 * len(single)
+
+
+def _stalled_groups(sizes: np.ndarray, room: np.ndarray, resolution: float) -> tuple[np.ndarray, float]:
+    """Which runs of one time (:func:`_time_groups`: their sizes and the time to the next run's, s) are a clock that
+    stood still, and the ping period (s), on a clock of ``resolution`` s (:func:`_clock_resolution`). A clock that
+    gives most pings a time of their own (at least half of the runs single) measures the ping period (the median
+    step after a single ping); a run of ``k`` pings at one time on it could only have been taken within the clock's
+    resolution if ``(k - 1)`` periods fit in it: more, by :data:`STALL_MARGIN_PERIODS`, and the clock stood still
+    while the instrument pinged on. On any clock a run of more than :data:`FROZEN_CLOCK_PINGS` pings stood still; on
+    a clock that then measures no period it is the time its stalls end in a tick per ping (the clock stood still,
+    then jumped on to the right time), else the time per ping of its other runs. None else on a clock slower than
+    the pings (most runs shared), whose shared times are its ticks."""
+    stalled, period = np.zeros(len(sizes), bool), float("nan")
+    if _own_times(sizes):
+        period = float(np.median(room[:-1][(sizes == 1)[:-1]]))
+        stalled = (sizes - 1 - STALL_MARGIN_PERIODS) * period > resolution
+    frozen = sizes > FROZEN_CLOCK_PINGS
+    if not frozen.any() or np.isfinite(period):
+        return stalled | frozen, period
+    for runs in (frozen & np.isfinite(room), ~frozen & np.isfinite(room)):
+        if runs.any():
+            return stalled | frozen, float(room[runs].sum() / sizes[runs].sum())
+    return stalled, period
 
 
 def with_spread_times(log: DvlLog) -> tuple[DvlLog, list[tuple[str, str, int]]]:
@@ -1119,9 +1300,9 @@ def with_spread_times(log: DvlLog) -> tuple[DvlLog, list[tuple[str, str, int]]]:
         raise DataError(f"all {len(log.t)} pings carry one time ({_utc(log.t[0])}): the DVL's clock did not run (not "
                         "set, or stopped), so when each ping was taken cannot be told; give each ping its time (a CSV "
                         "of DVL velocities: t, vx, vy, vz)", log.source, field="time")
-    t, moved, stalled = _spread(log.t)
+    t, moved, stalled, period = _spread(log.t)
     where = log.where or [f"ping {k}" for k in range(len(t))]
-    notes = [(_stall_note(log.t, t, stalled, where), STALLED_TIME, int(stalled.sum()))] if stalled.any() else []
+    notes = [(_stall_note(log.t, t, stalled, where, period), STALLED_TIME, int(stalled.sum()))] if stalled.any() else []
     if (moved & ~stalled).any():
         notes.append((_spread_note(log.t, t, moved & ~stalled, where), SPREAD_TIME, int((moved & ~stalled).sum())))
     return (dataclasses.replace(log, t=t) if moved.any() else log), notes
@@ -1137,19 +1318,31 @@ def _spread_note(t: np.ndarray, spread: np.ndarray, moved: np.ndarray, where: li
             "better")
 
 
-def _stall_note(t: np.ndarray, spread: np.ndarray, stalled: np.ndarray, where: list[str]) -> str:
-    """The note on the pings of a clock that stood still (:func:`_stalled_groups`), spread up to its jump."""
+def _stall_note(t: np.ndarray, spread: np.ndarray, stalled: np.ndarray, where: list[str], period: float) -> str:
+    """The note on the pings of a clock that stood still (:func:`_stalled_groups`), spread up to its jump at the ping
+    ``period`` (s) at most, and dead-reckoned at it after the clock's last time when the clock never ran on."""
     first = int(np.flatnonzero(stalled)[0])
     head = int(np.flatnonzero(t == t[first])[0])
     run = int(np.sum(t == t[first]))
     nxt = t[t > t[first]]
     jump = f"then jumped {nxt[0] - t[first]:.2f} s" if len(nxt) else "to the end of the file"
     runs = int(np.sum(stalled[1:] & ~stalled[:-1]) + stalled[0])
+    starts, sizes, _ = _time_groups(t)
+    own = _own_times(sizes)
+    rank = np.arange(len(t)) - np.repeat(starts, sizes)
+    paused = int(np.sum(stalled & (spread - t > rank * period + 1e-6)))
+    tail = (f"; {paused} of them after the pause between bursts it stood still across, at the ping period back from "
+            "the time it jumped to") if paused else ""
+    if stalled[-1]:
+        tail += (f"; after its last time ({_utc(t[-1])}) it never ran on: those {int(np.sum(t == t[-1]))} pings are "
+                f"dead-reckoned at the ping period ({period:.3f} s, "
+                f"{'its steps' if own else 'what its stalls ended in'}), not squeezed into its tick")
     return (f"the DVL's clock stood still: {run} pings from {where[head]} share its time {_utc(t[first])}, "
-            f"{jump}, while elsewhere it gives each ping a time of its own"
+            f"{jump}, " + ("while elsewhere it gives each ping a time of its own" if own else
+                           "more pings than a DVL takes within one tick of its clock")
             + (f" ({runs} such stall(s), {int(stalled.sum())} ping(s) in all)" if runs > 1 else "")
             + ": spread evenly up to the next time at the ping period at most, at most "
-            f"{np.max((spread - t)[stalled]):.3f} s after the time recorded; their times are a guess")
+            f"{np.max((spread - t)[stalled]):.3f} s after the time recorded{tail}; their times are a guess")
 
 
 def pd0_geometry(config: SensorConfig, meta: dict) -> SensorConfig:
