@@ -410,3 +410,20 @@ def test_gyrocompassing_across_joined_imu_gaps_that_leave_the_heading_undetermin
     with pytest.raises(AlignmentError, match=r"IMU gaps joined in the alignment \(1(\.01)? s after t = .* leave its "
                                              r"gyrocompassed heading undetermined.*supply a heading source"):
         align_mission(mission, AlignOptions(duration_s=90.0))
+
+
+def test_gyrocompassing_starts_again_after_a_joined_imu_gap_that_leaves_the_heading_undetermined():
+    """1 s of IMU samples lost 20 s into a 125 s recorded mission (seed 3): joined, a fit started 90 deg away held as
+    well and the alignment was refused ("the 1 IMU gap joined in the alignment (1.01 s after t = 139.990 s) leave its
+    gyrocompassed heading undetermined ..."), where before gaps were joined it aligned over the 104 s after the gap.
+    Now it starts again after the gap as it did then, and says why in ``info``."""
+    mission = simulate_mission(250.0, "navigation", 3).slice(120.0, 245.0)
+    t0 = mission.t0
+    mission.imu = mission.imu.take(np.flatnonzero(~((mission.imu.t >= t0 + 20.0) & (mission.imu.t < t0 + 21.0))))
+    a = align_mission(mission, AlignOptions(duration_s=90.0))
+    assert a.info["t_start"] == pytest.approx(t0 + 21.0) and a.info["imu_gaps_joined"] == 0
+    assert a.info["imu_gaps_not_joined"].startswith("the IMU gap joined in the alignment (1.01 s after t = ")
+    assert "leaves its gyrocompassed heading undetermined" in a.info["imu_gaps_not_joined"]
+    C, _, _ = truth(mission, a.t)
+    err = abs(np.degrees(wrap(C_b_n_to_euler(a.C_b_n)[2] - C_b_n_to_euler(C)[2])))
+    assert err < 3.0 * np.degrees(a.info["heading_sigma_rad"]) and err < 5.0

@@ -131,7 +131,9 @@ GAP_JOINED_S = 2.5
 HEADING_CHECK_TURNS_RAD = (np.pi / 2, -np.pi / 2)
 #: A fit from another start that ends elsewhere with a cost (chi-square) less than this much higher is as good.
 HEADING_CHECK_CHI2 = 9.0
-#: IMU time, s, after which an alignment refused for an undetermined heading is tried again (live).
+#: IMU time, s, after which an alignment refused for an undetermined heading is tried again (live); twice as long after
+#: each further refusal (a fit over 300-400 s of A-KIT data with 75-98 joined gaps took 1.6-3.8 s, and two or
+#: three of them make a check).
 HEADING_RECHECK_S = 60.0
 
 
@@ -355,8 +357,12 @@ class Aligner:
         self.imu_gaps: list[tuple[float, float]] = []
         # IMU gaps (t0, t1) s the alignment joins over (:data:`GAP_JOINED_S`): fitted, not started again after
         self.joined_gaps: list[tuple[float, float]] = []
-        # (IMU time held, s, why) when joined gaps last left the heading undetermined (_solve_checked)
+        # (IMU stamp to fit again at, s, why) when joined gaps last left the heading undetermined (_solve_checked),
+        # and how many times in a row they did
         self._undetermined: tuple[float, str] | None = None
+        self._n_undetermined = 0
+        # why the alignment started again after joined IMU gaps (_fall_back), for Alignment.info
+        self._not_joined: str | None = None
         self._before_gap: tuple[list, list, list] | None = None
 
     # --- input ------------------------------------------------------------------------------------
@@ -440,13 +446,20 @@ class Aligner:
         if t1 - t0 <= GAP_JOINED_S:
             self.joined_gaps.append((float(t0), float(t1)))
             return
-        self.imu_gaps.append((float(t0), float(t1)))
+        self._start_again(float(t0), float(t1))
+
+    def _start_again(self, t0: float, t1: float) -> None:
+        """Start the alignment again after the IMU gap from ``t0`` to ``t1`` (s): the samples from ``t1`` on (none
+        live, where the gap is told before its next sample) stay, those before it are kept while they are the
+        longest stretch (:meth:`_take_longest_stretch`)."""
+        self.imu_gaps.append((t0, t1))
         if not self._imu:
             return
-        held = (self._imu, [d for d in self._dvl if d[0] <= t0], [d for d in self._depth if d[0] <= t0])
+        k = bisect.bisect_left([s[0] for s in self._imu], t1)
+        held = (self._imu[:k], [d for d in self._dvl if d[0] <= t0], [d for d in self._depth if d[0] <= t0])
         if self._before_gap is None or _span(held[0]) > _span(self._before_gap[0]):
             self._before_gap = held
-        self._imu, self._dvl, self._depth = [], [d for d in self._dvl if d[0] > t0], \
+        self._imu, self._dvl, self._depth = self._imu[k:], [d for d in self._dvl if d[0] > t0], \
             [d for d in self._depth if d[0] > t0]
 
     def _take_longest_stretch(self) -> None:
@@ -514,8 +527,7 @@ class Aligner:
             out.append("no IMU samples (add_imu)")
         elif span < need:
             out.append(f"IMU data cover {span:.1f} s of the {need:g} s needed" + self._gap_note())
-        if (not end_of_data and self._undetermined is not None and not self._has_heading_source()
-                and span < self._undetermined[0] + HEADING_RECHECK_S):
+        if self._recheck_pending(end_of_data) and not self._after_last_joined_ready():
             out.append(self._undetermined[1])
         if len(self._dvl) < o.min_dvl_pings:
             out.append(f"{len(self._dvl)} DVL pings with >= 3 valid beams (bottom lock), {o.min_dvl_pings} needed "
@@ -567,7 +579,7 @@ class Aligner:
     @property
     def ready(self) -> bool:
         """True when :meth:`result` can produce an :class:`Alignment` (across joined IMU gaps: one whose heading the
-        data determine, :meth:`_solve_checked`, tried again after every :data:`HEADING_RECHECK_S` of IMU time)."""
+        data determine, or one over the stretch after the last of them, :meth:`_solve_checked`)."""
         if self.missing():
             return False
         if self._needs_heading_check():
@@ -582,28 +594,91 @@ class Aligner:
                 and self._joined_steps(np.array([s[0] for s in self._imu])).size > 0)
 
     def _solve_checked(self, t_out: float | None, end_of_data: bool = False) -> Alignment:
-        """:meth:`_solve`, refused when joined IMU gaps leave the gyrocompassed heading undetermined: a fit started
-        turned by each of :data:`HEADING_CHECK_TURNS_RAD` that ends more than 3 sigmas from it with a cost less
-        than :data:`HEADING_CHECK_CHI2` higher is an equally good heading (docs/decisions/alignment.md)."""
-        al = self._solve(t_out, end_of_data)
+        """:meth:`_solve` across joined IMU gaps, checked: when they leave the gyrocompassed heading undetermined
+        (:meth:`_heading_undetermined`), the alignment starts again after them as it did before gaps were joined
+        (:meth:`_fall_back`: over the stretch after the last, or the longest at the end of the data), and is refused
+        only when that stretch is too short as well. A heading found undetermined is not fitted again before
+        :meth:`_recheck_pending` says so."""
         if not self._needs_heading_check():
+            al = self._solve(t_out, end_of_data)
+            if self._not_joined is not None:
+                al.info["imu_gaps_not_joined"] = self._not_joined
             return al
+        if self._recheck_pending(end_of_data):
+            why = self._undetermined[1]
+        else:
+            al = self._solve(t_out, end_of_data)
+            why = self._heading_undetermined(al, t_out, end_of_data)
+            if why is None:
+                self._undetermined, self._n_undetermined = None, 0
+                return al
+            # each fit across hundreds of gaps costs seconds: wait twice as long after each refusal
+            wait_s = HEADING_RECHECK_S * 2.0 ** min(self._n_undetermined, 20)
+            self._undetermined, self._n_undetermined = (self._imu[-1][0] + wait_s, why), self._n_undetermined + 1
+        short = self._fall_back(end_of_data)
+        if short:
+            raise AlignmentError(f"cannot align from the sensors: {why}; started again after the gaps, {short}")
+        self._not_joined = why
+        return self._solve_checked(t_out, end_of_data)
+
+    def _heading_undetermined(self, al: Alignment, t_out: float | None, end_of_data: bool) -> str | None:
+        """Why the joined IMU gaps leave the heading of ``al`` undetermined, or None: a fit started turned by each of
+        :data:`HEADING_CHECK_TURNS_RAD` that ends more than 3 sigmas from it with a cost less than
+        :data:`HEADING_CHECK_CHI2` higher is an equally good heading (docs/decisions/alignment.md)."""
         for turn in HEADING_CHECK_TURNS_RAD:
             other = self._solve(t_out, end_of_data, yaw_start=turn)
             apart = abs(float(np.angle(np.exp(1j * (other.euler[2] - al.euler[2])))))
             worse = other.info["fit_cost"] - al.info["fit_cost"]
             if apart > 3.0 * al.info["heading_sigma_rad"] and worse < HEADING_CHECK_CHI2:
                 n = len(self._joined_steps(np.array([s[0] for s in self._imu])))
-                why = (f"the {n} IMU gap{'s' * (n > 1)} joined in the alignment ({self._joined_note()}) leave its "
-                       f"gyrocompassed heading undetermined: a fit started {np.degrees(turn):+.0f} deg away ends at "
-                       f"{np.degrees(other.euler[2]):.1f} deg against {np.degrees(al.euler[2]):.1f} deg (claimed "
-                       f"sigma {np.degrees(al.info['heading_sigma_rad']):.2g} deg) with a cost {worse:+.2f} from "
-                       "it; supply a heading source (add_heading, or AlignOptions.initial_heading_rad: "
-                       "--initial-heading)")
-                self._undetermined = (self._span_s(), why)
-                raise AlignmentError("cannot align from the sensors: " + why)
+                gaps = f"the {n} IMU gaps joined" if n > 1 else "the IMU gap joined"
+                return (f"{gaps} in the alignment ({self._joined_note()}) leave{'s' * (n == 1)} its gyrocompassed "
+                        f"heading undetermined: a fit started {np.degrees(turn):+.0f} deg away ends at "
+                        f"{np.degrees(other.euler[2]):.1f} deg against {np.degrees(al.euler[2]):.1f} deg (claimed "
+                        f"sigma {np.degrees(al.info['heading_sigma_rad']):.2g} deg) with a cost {worse:+.2f} from "
+                        "it; supply a heading source (add_heading, or AlignOptions.initial_heading_rad: "
+                        "--initial-heading)")
+        return None
+
+    def _recheck_pending(self, end_of_data: bool = False) -> bool:
+        """True while a heading the joined IMU gaps left undetermined waits (live) before it is fitted again:
+        :data:`HEADING_RECHECK_S` of IMU time after the first refusal, twice as long after each further one."""
+        return (not end_of_data and self._undetermined is not None and not self._has_heading_source()
+                and bool(self._imu) and self._imu[-1][0] < self._undetermined[0])
+
+    def _after_last_joined_ready(self) -> bool:
+        """True when the data after the last joined IMU gap held are enough to align over on their own (as
+        :meth:`_fall_back` will, not at the end of the data)."""
+        if not self.joined_gaps or not self._imu or self.joined_gaps[-1][1] < self._imu[0][0]:
+            return False
+        t0, t1 = self.joined_gaps[-1]
+        pings = len(self._dvl) - bisect.bisect_right([d[0] for d in self._dvl], t0)
+        return self._imu[-1][0] - t1 >= self._needed_s() and pings >= self.options.min_dvl_pings
+
+    def _fall_back(self, end_of_data: bool = False) -> str:
+        """Start the alignment again after every joined IMU gap of the data held (:meth:`_start_again`), the rule
+        before gaps were joined: it aligns over the stretch after the last (at the end of the data: the longest).
+        Returns what that stretch lacks ("" when it is enough; when it lacks any, the data held stay as they were)."""
+        t = np.array([s[0] for s in self._imu])
+        held = (self._imu, self._dvl, self._depth, list(self.imu_gaps), self._before_gap, self._undetermined)
+        for i in self._joined_steps(t):
+            self._start_again(float(t[i]), float(t[i + 1]))
         self._undetermined = None
-        return al
+        missing = self.missing(end_of_data)
+        if missing:
+            self._imu, self._dvl, self._depth, self.imu_gaps, self._before_gap, self._undetermined = held
+            return "; ".join(missing)
+        return ""
+
+    def settle(self, end_of_data: bool = False) -> None:
+        """Decide which data the alignment is over, so that :attr:`t_first` says where it starts: across the joined
+        IMU gaps, or after them when they leave the heading undetermined (:meth:`_solve_checked`; :attr:`ready`
+        decides it live, this at the end of the data).
+
+        Raises:
+            AlignmentError: as :meth:`result`."""
+        if self._needs_heading_check():
+            self._solve_checked(None, end_of_data)
 
     def _joined_note(self) -> str:
         """The first joined IMU gaps of the data held, in words."""
@@ -746,7 +821,7 @@ class Aligner:
             # of the first ping is common to every vector and tilts the whole fit
             rot, _ = Rotation.align_vectors(alpha - alpha.mean(0), beta - beta.mean(0))
             C = rot.as_matrix()
-        if yaw_start:     # a start turned about the vertical (_heading_determined)
+        if yaw_start:     # a start turned about the vertical (_heading_undetermined)
             C = Rotation.from_rotvec([0.0, 0.0, yaw_start]).as_matrix() @ C
         # Gauss-Newton refinement with the accelerometer bias and the DVL's scale factor and beam biases (seen in
         # turns and speed changes; their priors otherwise, and their uncertainty reaches the heading and tilt),
