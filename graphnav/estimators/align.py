@@ -132,7 +132,7 @@ HEADING_CHECK_TURNS_RAD = (np.pi / 2, -np.pi / 2)
 #: A fit from another start that ends elsewhere with a cost (chi-square) less than this much higher is as good.
 HEADING_CHECK_CHI2 = 9.0
 #: IMU time, s, after which an alignment refused for an undetermined heading is tried again (live); twice as long after
-#: each further refusal (a fit over 300-400 s of A-KIT data with 75-98 joined gaps took 1.6-3.8 s, and two or
+#: each further refusal (a fit over 300-400 s of A-KIT data with 75-98 joined gaps took 1.0-3.8 s, and two or
 #: three of them make a check).
 HEADING_RECHECK_S = 60.0
 
