@@ -510,3 +510,77 @@ def test_a_dvl_header_clock_running_slow_is_warned_and_taken_out_when_clear(sim,
         assert dt[-1] == pytest.approx(-0.3, abs=1e-6)
         assert m.meta["streams"]["dvl"]["doubted"] == {bag_stamps.HEADER_CLOCK_DRIFT_UNTOLD: n}
         assert said[0].endswith("too spread to take the drift out: the header stamps are kept")
+
+
+def _imu_packets(t, k, rx):
+    """The IMU's samples delivered in packets of 10 (received with the packet's last): header minus receive time a
+    sawtooth of 0-0.09 s, every message's a jump of more than a quarter period."""
+    return rx + (9 - k % 10) * NS // 100 if t == "/imu/data" else rx
+
+
+def test_an_imu_delivered_in_packets_is_no_reason_to_move_the_other_topics_off_a_drifting_recorder_clock(sim,
+                                                                                                        tmp_path):
+    """The recorder's clock runs 1 % fast against the vehicle's (every receive time), the IMU's samples arrive in
+    packets of 10. Every header clock is right. The packets' sawtooth was taken out as jumps, leaving the IMU no drift
+    against the recorder: the DVL, the pressure and the reference read as drifting 0.3 s against it and were moved
+    0.3 s off their true time ("the header clock runs ... slow against the IMU's"). Now a latency jumping on most
+    messages is the recorder's delivery, not a clock's steps: every topic keeps its header stamps, no drift is said."""
+    _, clean_path, _ = sim
+    clean, _ = _load(clean_path)
+
+    def change(t, k, msg, rx):
+        return T0_NS + round((_imu_packets(t, k, rx) - T0_NS) * 1.01)
+    m, warned = _load(_rewritten(clean_path, tmp_path / "packets", change))
+    for s in ("dvl", "depth", "gt"):
+        np.testing.assert_allclose(getattr(m, s).t, getattr(clean, s).t, atol=2e-9, err_msg=s)
+    assert not [w for w in warned if "the header clock runs" in w], warned
+
+
+@pytest.mark.parametrize("topic, off_s", [("/imu/data", 5.0), ("/imu/data", 0.5), ("/pressure", 0.5)])
+def test_a_header_clock_glitch_under_a_latency_counts_only_the_messages_it_moved(sim, tmp_path, topic, off_s):
+    """The IMU's (the pressure's) header clock runs 5 s or 0.5 s ahead for messages 1000-1099 (100-149) alone, the
+    IMU delivered in packets of 10. Everything after the step back was moved forward, then everything after the step
+    back: 3902 of the IMU's 3001 samples counted doubted (the pressure's 0.5 s: 352 of 301), each warning saying
+    "the stamps from this message on"; in packets (every message a jump of header minus receive time) the IMU's
+    last 1901 samples were left 0.09 s late. Now the stretch between the step and the step back by as much is moved
+    onto the clock around it and counted alone, once."""
+    _, clean_path, _ = sim
+    clean, _ = _load(clean_path)
+    stream, ks = ("imu", range(1000, 1100)) if topic == "/imu/data" else ("depth", range(100, 150))
+
+    def change(t, k, msg, rx):
+        if t == topic and k in ks:
+            _set_stamp(msg, _stamp_ns(msg) + round(off_s * NS))
+        return _imu_packets(t, k, rx)
+    m, warned = _load(_rewritten(clean_path, tmp_path / f"glitch{stream}{off_s:g}", change))
+    np.testing.assert_allclose(getattr(m, stream).t, getattr(clean, stream).t, atol=2e-9)
+    assert m.meta["streams"][stream]["doubted"] == {bag_stamps.HEADER_CLOCK_SET_RIGHT: len(ks)}
+    said = [w for w in warned if "the header clock" in w]
+    assert len(said) == 1 and f"message {ks[-1] + 1}, field 'header.stamp'" in said[0] and (
+        f"the {len(ks)} stamp(s) from message {ks[0]} (where the clock stepped off by as much) to it are moved by "
+        f"{-off_s:+.3f} s onto the clock after") in said[0], said
+    assert not [w for w in warned if "a gap of" in w], warned
+
+
+@pytest.mark.parametrize("topic", ["/dvl/data", "/reference/odometry"])
+def test_a_topic_received_at_another_pace_than_stamped_keeps_its_header_stamps(sim, tmp_path, topic):
+    """The DVL's pings received at 1.25 times their pace (a replay), or the reference written into the bag after the
+    run (received 1 ms apart), every header stamp right. Header minus receive time running 25 % off the IMU's was
+    read as the DVL's clock drifting: its pings moved onto the receive time's pace, the last 6 s early (the
+    reference's kept without a word, only as its every message read as a jump). No clock drifts that far: now either
+    is warned as received at another pace, counted, and the header stamps are kept."""
+    _, clean_path, _ = sim
+    clean, _ = _load(clean_path)
+    stream = STREAMS[topic]
+
+    def change(t, k, msg, rx):
+        if t != topic:
+            return rx
+        return T0_NS + round(0.8 * (rx - T0_NS)) if topic == "/dvl/data" else T0_NS + 31 * NS + k * NS // 1000
+    m, warned = _load(_rewritten(clean_path, tmp_path / "pace", change))
+    np.testing.assert_allclose(getattr(m, stream).t, getattr(clean, stream).t, atol=2e-9)
+    n = getattr(clean, stream).t.size
+    assert m.meta["streams"][stream]["doubted"] == {bag_stamps.RECEIVED_OFF_PACE: n}
+    said = [w for w in warned if "received at another pace than it was stamped" in w]
+    assert len(said) == 1 and f"{topic}, field 'receive time'" in said[0], said
+    assert not [w for w in warned if "the header clock runs" in w], warned

@@ -1088,26 +1088,37 @@ def test_a_dvl_late_beside_an_imu_with_a_gap_is_found_at_its_offset(sim_200, gap
     assert est.sigma_s < 0.1
 
 
-def test_only_imu_gaps_the_run_bridges_leave_windows_out(sim_200):
+def test_only_imu_gaps_the_run_bridges_cut_windows(sim_200):
     """Samples lost for under `IMU_GAP_MIN_S` (0.25 s; here a 0.2 s step at 100 Hz) are integrated over as the stamps
-    say; a 0.3 s step is a gap, and the window model fits no window of pings spanning it at an offset, but those either
-    side."""
+    say; a 0.3 s step is a gap, and the DVL checks' window model (untrimmed) cuts a window of pings spanning it at an
+    offset there, as the clock search's does: no ping stamped inside it is fitted, each side of at least 6 pings on
+    its own (it left the window out whole); the windows either side are fitted whole."""
     from graphnav.core.dvl_kinematics import imu_gaps, outage_cut_model
     imu = _imu_without(_imu_without(sim_200.imu, 30.0, 0.195), 80.0, 0.3)
     gaps = imu_gaps(imu.t)
     assert gaps.shape == (1, 2) and gaps[0] == pytest.approx([80.0, 80.3], abs=1e-6)
     model = outage_cut_model(imu, sim_200.dvl, sim_200.config)
-    for offset in (0.0, 5.0):
-        used = model.pings(offset).any(axis=1)
-        first, last = model.t[:, 0] + offset, model.t[:, -1] + offset
-        assert not np.any(used & (first < 80.3) & (last > 80.0))
-        assert np.all(used[(last < 80.0) | (first > 80.3)][:-1])
+    assert not model.trim
+    for offset in (-10.0, -8.0):              # pings at 70-89 s and 72-91 s on the IMU clock: 11 / 9 either side
+        use = model.pings(offset)
+        t = model.t + offset
+        across = (t[:, 0] < 80.0) & (t[:, -1] > 80.3)
+        assert across.sum() == 1 and use[across].sum() == model.window
+        parts = model.segments(offset, use)
+        assert parts is not None and np.all(parts[across].any(axis=1))
+        assert np.all(t[across][parts[across][..., 0]] <= 80.0) and np.all(t[across][parts[across][..., 1]] >= 80.3)
+        clear = ((t[:, -1] < 80.0) | (t[:, 0] > 80.3)) & (t[:, 0] >= imu.t[0]) & (t[:, -1] <= imu.t[-1])
+        assert np.all(use[clear & model.real.all(axis=1)])
+    # a mask the DVL checks give (their search over offsets keeps the same windows at each) is cut so too: a ping
+    # stamped inside the gap was scored on the IMU's held samples
+    use, t = model.imu_at(-9.85, model.real)[0], model.t - 9.85
+    assert not np.any(use & (t > 80.0) & (t < 80.3)) and use[(t[:, 0] < 80.0) & (t[:, -1] > 80.3)].sum() == 19
 
 
 def test_a_clock_window_across_an_imu_gap_keeps_its_pings_either_side(sim_200):
     """The clock search's window across a 0.3 s IMU gap is cut there, as at the IMU's ends: the pings stamped inside
     the gap are left out and those either side are fitted as parts of their own (own v0, g0 and straight line), where
-    the window was left out whole before; the DVL checks' whole windows are still left out."""
+    the window was left out whole before (the DVL checks' too: test_only_imu_gaps_the_run_bridges_cut_windows)."""
     from graphnav.calibration.clock import clock_model
     imu = _imu_without(sim_200.imu, 80.0, 0.3)
     model = clock_model(imu, sim_200.dvl, sim_200.config)

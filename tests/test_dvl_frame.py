@@ -2135,3 +2135,53 @@ def test_a_level_vehicle_builds_each_turn_of_its_imu_once_against_the_dvl(sim, t
         _load(_folder(tmp_path, (level, t, None), v_b))
     turns = [tuple(np.round(dvl_scale.turn_about_z(yaw).T, 9).ravel()) for yaw in dvl_scale.IMU_YAWS_DEG]
     assert [built.count(turn) for turn in turns] == [1, 1, 1]
+
+
+def _imu_losing(sim, every_s: float, seconds: float, start_s: float = 3.1):
+    """``sim`` with ``seconds`` of IMU rows deleted every ``every_s`` s from ``start_s`` s in: gaps the run bridges."""
+    m, t, v_b = sim
+    since = m.imu.t - m.imu.t[0] - start_s
+    keep = (since <= 0.0) | (since % every_s >= seconds)
+    imu = dataclasses.replace(m.imu, t=m.imu.t[keep], f_b=m.imu.f_b[keep], omega_b=m.imu.omega_b[keep])
+    return dataclasses.replace(m, imu=imu), t, v_b
+
+
+def test_flu_axes_beside_an_imu_losing_0_4_s_every_7_s_are_refused_as_without_the_gaps(sim, tmp_path):
+    """A gap in every 20 s window of the DVL checks left each out whole: an FLU velocity read as FRD beside an IMU
+    losing 0.4 s every 7 s loaded without a word on its axes (only its time offset not judged). The windows are cut
+    at the gaps as the clock search's are, and it is refused as the gapless log is (4.1x better negated; 9.8x)."""
+    m, t, v_b = sim
+    with pytest.raises(DataError, match=r"fits the IMU's accelerations \d+\.\d+x better with its y and z negated .*"
+                                        r"FLU axes \(ROS base_link\) read as FRD\? declare csv_columns\.dvl\.frame"):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            _load(_folder(tmp_path, _imu_losing(sim, 7.0, 0.4), v_b * [1, -1, -1]))
+
+
+def test_knots_beside_an_imu_losing_2_s_every_30_s_are_judged_by_the_speed_scale_as_without_the_gaps(sim, tmp_path):
+    """Knots read as m/s, the DVL 30 s late (clock auto), the IMU losing 2 s every 30 s: the speed scale's windows
+    across the gaps were left out, and the velocity was refused only by the unit trial ('6.79x better in kn'),
+    where the gapless log is refused by its scale (1.96x). Cut at the gaps, the scale judges it as there (1.95x)."""
+    m, t, v_b = sim
+    with pytest.raises(DataError, match=r"the DVL velocity is 1\.9\dx what the IMU's accelerations say .*knots read "
+                                        r"as m/s"):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            _load(_folder(tmp_path, _imu_losing(sim, 30.0, 2.0), v_b / KNOT, {"clock": "auto"}, shift=30.0))
+
+
+def test_a_turned_dvl_beside_an_imu_too_gappy_to_judge_it_is_said_for_the_imu_gaps_not_a_fit_on_held_samples(
+        sim, tmp_path):
+    """0.4 s of IMU rows missing every 4 s leave no part of a window with 6 pings. A DVL turned 90 deg was judged
+    ('fits the IMU only turned back') by the IMU-turn fit on windows scored across the gaps, on the IMU's held
+    samples; it is now warned about by where it points, naming the gaps that left nothing to fit (not 'explains
+    nan')."""
+    m, t, v_b = sim
+    C_d_b = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        _load(_folder(tmp_path, _imu_losing(sim, 4.0, 0.4), v_b @ C_d_b))
+    said = [str(w.message) for w in caught if "deg about z" in str(w.message)]
+    assert len(said) == 1 and "nan" not in said[0], said
+    assert re.search(r"points -90 deg about z from body x on average .*no two windows to fit it on: the IMU's "
+                     r"stamps have 75 gap\(s\) \(0\.4\d(-0\.4\d)? s long, starting every 4\.0 s\)", said[0]), said

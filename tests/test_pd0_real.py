@@ -573,3 +573,112 @@ def test_bytes_before_a_cut_last_ensemble_at_the_end_and_a_header_written_again_
         assert [s for s in said if f"{n} byte(s)" in s]
         np.testing.assert_array_equal(log.t, clean.t)
         np.testing.assert_array_equal(log.v_d, clean.v_d)
+
+
+def test_a_clock_of_whole_seconds_that_stops_dead_reckons_at_the_ping_period_not_its_median_step(pd0_dir, tmp_path):
+    """winriver01.PD0 (pings 1.31 s apart) on a clock of whole seconds (steps of 1 s and 2 s, median 1 s) whose last
+    30 pings share one time: they are dead-reckoned at the period its steps give (1.306 s), within the clock's
+    second of their times. They were dead-reckoned at its median step, 1.000 s: the last ping 9.2 s early."""
+    src = pd0_dir / "winriver01.PD0"
+    true = _clock(src)
+    recorded = np.floor(true)
+    recorded[-30:] = recorded[-30]
+    path = tmp_path / src.name
+    path.write_bytes(b"".join(_retimed(src, recorded)))
+    dvl, meta, said = _read_for_a_mission(path)
+    np.testing.assert_allclose(dvl.t, true[:len(dvl.t)], rtol=0, atol=1.0)
+    assert meta["streams"]["dvl"]["doubted"] == {pd0.STALLED_TIME: 28}
+    assert [s for s in said if "dead-reckoned at the ping period (1.306 s, its steps)" in s]
+
+
+@pytest.mark.parametrize("stall", ["through a whole burst", "across two pauses", "at the end of the file"])
+def test_a_dvl_clock_stalled_across_several_pauses_or_to_the_end_puts_each_burst_after_its_pause(pd0_dir, tmp_path,
+                                                                                                   stall):
+    """winriver01.PD0 retimed to bursts of 10 pings 1.3 s apart every 30 s, its clock standing still from the 9th
+    ping of the 6th burst through the whole 7th (12 pings), from the 6th of the 6th burst to the last of the 8th (25
+    pings), or from the 7th of the last burst but one to the end of the file: every ping lands on its time (0.05 s),
+    each burst after its pause. The bursts before the last pause were put without their pause, 17 s early (34 s with
+    two), and the burst after a stall to the end of the file 17 s early."""
+    src = pd0_dir / "winriver01.PD0"
+    k = np.arange(len(_clock(src)))
+    true = _clock(src)[0] + 30.0 * (k // 10) + 1.3 * (k % 10)
+    first, end = {"through a whole burst": (58, 70), "across two pauses": (55, 80),
+                  "at the end of the file": (len(k) - 5, len(k))}[stall]
+    recorded = true.copy()
+    recorded[first:end] = true[first]
+    path = tmp_path / src.name
+    path.write_bytes(b"".join(_retimed(src, recorded)))
+    dvl, meta, said = _read_for_a_mission(path)
+    np.testing.assert_allclose(dvl.t, true[:len(dvl.t)], rtol=0, atol=0.05)
+    assert [s for s in said if "of them after the pause between bursts it stood still across" in s]
+
+
+def test_a_second_recording_in_another_frame_joined_without_a_cut_is_refused_naming_the_byte(pd0_dir, tmp_path):
+    """winriver01.PD0 (ship frame) with itself joined behind 3 days later set up in the earth frame (the EX bits of
+    its fixed leaders): refused naming the two ensembles, the frames and the byte to cut at. It was read as one log
+    in the earth frame, the first recording's ship-frame velocities turned as earth ones, warned only as a join."""
+    src = pd0_dir / "winriver01.PD0"
+    raw = src.read_bytes()
+    parts = _retimed(src, _clock(src) + 3 * 86400.0)
+    for ens in parts:
+        offsets = struct.unpack_from(f"<{ens[5]}H", ens, 6)
+        fixed = next(o for o in offsets if ens[o:o + 2] == b"\x00\x00")
+        ens[fixed + 25] |= 0x18                                           # EX bits 3-4: earth
+        struct.pack_into("<H", ens, len(ens) - 2, sum(ens[:-2]) & 0xFFFF)
+    path = tmp_path / src.name
+    path.write_bytes(raw + b"".join(parts))
+    last = pd0.scan_pd0(src).spans[-1][0]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        with pytest.raises(DataError, match=re.escape(
+                f"changes from ship in ensemble 485 (byte {last}) to earth in ensemble 224 (byte {len(raw)}): "
+                f"recordings set up differently joined in one file") + ".*" + re.escape(
+                f"load each from a file of its own (the bytes before {len(raw)} and from {len(raw)} on)")):
+            read_dvl(path)
+
+
+def test_an_instrument_restarted_seconds_later_in_the_same_file_is_named_as_a_second_recording(pd0_dir, tmp_path):
+    """winriver01.PD0 with itself joined behind 5 s after its last ping (numbers starting again at 224, the clock
+    running on by under 10 of its 1.31 s steps): warned naming where the second recording begins and counted, read
+    as one log. It was read without a word; one ensemble number out of line (324 written as 5) is no restart."""
+    src = pd0_dir / "winriver01.PD0"
+    raw, spans, clock = src.read_bytes(), pd0.scan_pd0(src).spans, _clock(src)
+    path = tmp_path / "restarted" / src.name
+    path.parent.mkdir()
+    path.write_bytes(raw + b"".join(_retimed(src, clock - clock[0] + clock[-1] + 5.0)))
+    log, said = _read_warned(path)
+    assert [s for s in said if "recording(s) joined" in s] == [
+        f"{path}: 1 recording(s) joined behind another without a cut: ensemble 224 (byte {len(raw)}) after ensemble "
+        f"485 (byte {spans[-1][0]}) starts the ensemble numbers again 5.00 s later; read as one log with a gap of no "
+        f"pings there (to load one recording, cut the file at byte {len(raw)})"]
+    assert log.counts[pd0.JOINED_RECORDING] == 1 and len(log.t) == 2 * len(spans) - 1
+    parts = [bytearray(raw[a:b]) for a, b in spans]
+    leader = next(o for o in struct.unpack_from(f"<{parts[100][5]}H", parts[100], 6)
+                  if struct.unpack_from("<H", parts[100], o)[0] == 0x0080)
+    struct.pack_into("<H", parts[100], leader + 2, 5)
+    struct.pack_into("<H", parts[100], len(parts[100]) - 2, sum(parts[100][:-2]) & 0xFFFF)
+    path = tmp_path / "glitch" / src.name
+    path.parent.mkdir()
+    path.write_bytes(b"".join(parts))
+    log, said = _read_warned(path)
+    assert pd0.JOINED_RECORDING not in log.counts and not [s for s in said if "joined" in s]
+
+
+def test_a_dvl_clock_that_stops_and_runs_on_from_where_it_stood_is_said_to_have_lost_the_time(pd0_dir, tmp_path):
+    """winriver01.PD0 whose clock stands still for 50 pings (from its 101st) and then runs on from where it stood,
+    one step (1.31 s) on: the 50 pings take 65.5 s at the ping period, so the clock lost about 64.2 s and every time
+    after is that early; the warning says so and what to give instead. It said only that the clock "then jumped
+    1.31 s" and the pings were spread up to it, as if the times after were right."""
+    src = pd0_dir / "winriver01.PD0"
+    true = _clock(src)
+    recorded = true.copy()
+    recorded[100:150] = true[100]
+    recorded[150:] -= true[149] - true[100]
+    path = tmp_path / src.name
+    path.write_bytes(b"".join(_retimed(src, recorded)))
+    dvl, meta, said = _read_for_a_mission(path)
+    assert meta["streams"]["dvl"]["doubted"] == {pd0.STALLED_TIME: 49}
+    note = [s for s in said if "stood still" in s]
+    assert len(note) == 1 and ("after the 50 pings at 2017-04-05 08:11:28.81 it ran on only 1.31 s where they take "
+                               "65.5 s at the ping period: the clock lost about 64.2 s there") in note[0]
+    assert "(a CSV of DVL velocities: t, vx, vy, vz)" in note[0]

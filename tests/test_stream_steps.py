@@ -323,3 +323,47 @@ def test_a_clock_step_of_days_back_is_refused_naming_the_jump_as_one_ahead_is(re
     text = str(err.value)
     assert "the clock jumped 172800 s back at t = 139.990 s, first on the depth stream" in text, text
     assert "100 of 14100 imu samples refused after it" in text and "split the stream there" in text
+
+
+def _imu_on_boot_clock(recs, until_s: float, t0: float = 1.7e9):
+    """Every record on Unix time (``t0`` on) but the IMU's before ``until_s``, stamped from 0 (an IMU driver stamping
+    from its boot before the clock the other streams share reached it)."""
+    return [r if r["type"] == "imu" and r["t"] < until_s else dict(r, t=r["t"] + t0) for r in recs]
+
+
+def test_an_imu_stamped_from_its_boot_for_its_first_seconds_is_refused_alone(records):
+    """The IMU's first 3 s stamped from 0 among streams on Unix time: a second of its samples days behind the
+    others' was taken for the clock stepping back, three times: the stream started over on the IMU's clock with the
+    depth and DVL samples before refused ("the clock jumped 1.7e+09 s back ... starts over on that clock", 30 depth
+    and 3 DVL samples lost). The other streams went on on their clock: the IMU's 300 samples alone are refused."""
+    config, recs = records
+    nav, out, said = _run(config, _imu_on_boot_clock(recs, 3.0))
+    assert not any("starts over" in w for w in said), said
+    assert nav.refused == {"imu": {"t": 300}}, nav.refused
+    assert len(out) >= 198 and out[0].t >= 1.7e9 + 3.0
+
+
+def test_an_imu_on_its_own_clock_is_named_not_the_stream_the_start_overs_refused(records):
+    """The IMU stamped from its boot throughout, the depth and DVL on Unix time: the stream started over on the
+    IMU's clock every second (a warning each time) and ended naming the depth stream: "200 of 200 depth samples
+    refused (t: 200): more than 50% of the stream; check units and sensor ranges". Now the IMU is named as on
+    its own clock."""
+    config, recs = records
+    with pytest.raises(DataError) as err:
+        _run(config, _imu_on_boot_clock([r for r in recs if r["t"] < 20.0], 20.0))
+    text = str(err.value)
+    assert "2000 of 2000 imu samples are stamped more than 86400 s behind the other streams' (by 1.7e+09 s" in text
+    assert "the imu stamps are not on the clock the other streams share" in text and "split" not in text, text
+
+
+def test_the_imu_alone_stepping_days_back_is_named_as_on_its_own_clock_not_as_a_step_to_split_at(records):
+    """The IMU's stamps alone 2 days back from 140 s, the depth and DVL going on: the error said "the clock jumped
+    172800 s back ... (every stream shares the clock); split the stream there", which the other streams'
+    stamps after it would not follow. Now it names the IMU's stamps as off the clock the others share."""
+    config, recs = records
+    stepped = [dict(r, t=r["t"] - 2 * 86400.0) if r["type"] == "imu" and r["t"] >= T_STEP else r for r in recs]
+    with pytest.raises(DataError) as err:
+        _run(config, stepped)
+    text = str(err.value)
+    assert "100 of 14100 imu samples are stamped more than 86400 s behind the other streams' (by 172800 s" in text
+    assert "the imu stamps are not on the clock the other streams share" in text and "split" not in text, text

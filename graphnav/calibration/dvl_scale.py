@@ -25,8 +25,8 @@ from graphnav.calibration.axes import TURN_ADVICE, mounting_text
 from graphnav.calibration.clock import COARSE_MAX_WINDOWS
 from graphnav.core.dvl_kinematics import (MIN_SCALE_R2, SCALE_OFFSETS_S, SCALE_SEARCH_S, WINDOW_S, best_speed_fit,
                                           centred, dvl_velocity_b, dvl_window_model, fits_turned_elsewhere,
-                                          imu_integrals, outage_cut_model, speed_scale, turn_at, turn_fit,
-                                          within_half_turn)
+                                          imu_gaps_said, imu_integrals, outage_cut_model, speed_scale, turn_at,
+                                          turn_fit, within_half_turn)
 from graphnav.core.errors import DataError
 from graphnav.core.streams import add_note, count_doubted, say_doubted
 from graphnav.io.dvl_frame import (CARRIED, EARTH_FRAMES, KEPT_AS_DECLARED, KEPT_POINTING_OFF, check_not_earth_frame,
@@ -1055,8 +1055,8 @@ def check_velocity_against_imu(imu, dvl, config, meta: dict, moved: bool = False
         add_note(meta, "dvl", "its mean direction not compared with the vehicle's forward: a velocity carried by the "
                               "current points where the current carries the vehicle")
     elif dvl_turn is None or not r2 >= MIN_SCALE_R2:     # only the mean direction is left to judge the turn by
-        why = (f"its fit explains {r2:.2f} of the velocity's changes, {MIN_SCALE_R2:g} needed" if not
-               r2 >= MIN_SCALE_R2 else "it fits the IMU's axes as read, whose turn about z was not judged") + (
+        why = (_too_little_said(model, r2) if not r2 >= MIN_SCALE_R2 else
+               "it fits the IMU's axes as read, whose turn about z was not judged") + (
                "; it fits the IMU as read better than turned by a quarter turn" if dvl_turn == 0 else "")
         warn_dvl_sideways(dvl, config, meta, field, why, fixes, reference)
     # a few degrees are read at the DVL's stamps with their sigma: the best scale's offset, up to 20 s off, is noise
@@ -1068,6 +1068,14 @@ def check_velocity_against_imu(imu, dvl, config, meta: dict, moved: bool = False
         if r2 >= MIN_SCALE_R2:
             warn_small_turn(dvl, meta, field, fixes, yaw, sigma, r2)
     check_flu_axes(model, imu, dvl, config, meta, field, fixes, clock_known)
+
+
+def _too_little_said(model, r2: float) -> str:
+    """Why the speed scale's fit of r^2 ``r2`` (NaN: under two windows to fit) cannot judge the DVL's turn, for the
+    clock model ``model``: where the IMU's gaps left it no windows, those gaps (``nan`` of the changes said nothing)."""
+    if np.isnan(r2) and len(model.imu.gaps):
+        return f"no two windows to fit it on: {imu_gaps_said(model.imu.gaps, model.window)}"
+    return f"its fit explains {r2:.2f} of the velocity's changes, {MIN_SCALE_R2:g} needed"
 
 
 def check_flu_axes(model, imu, dvl, config, meta: dict, field: str, fixes: dict, clock_known: bool = True) -> None:

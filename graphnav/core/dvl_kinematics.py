@@ -294,8 +294,8 @@ class _WindowModel:
     badly). No window spans a gap of more than ``max_gap_s`` (:data:`MAX_WINDOW_GAP_S`; the clock search's and the
     speed check's scale fit's :data:`MAX_CLOCK_GAP_S`, :func:`outage_cut_model`); the padding of a window cut short
     by one (``real`` False) is fitted at no offset. At an offset putting a gap in the IMU inside a window
-    (:func:`imu_gaps`: the integrals hold the last sample across it), the clock search's window is cut there, its
-    parts either side fitted on their own, and the DVL checks' window is left out (:meth:`at_imu_gaps`).
+    (:func:`imu_gaps`: the integrals hold the last sample across it), every window is cut there, the clock search's
+    and the DVL checks', its parts either side fitted on their own (:meth:`at_imu_gaps`).
     ``t_pings``: the stamps of every ping it was built from (s), in the windows or not (the clock search's span,
     period and gaps)."""
 
@@ -351,18 +351,14 @@ class _WindowModel:
 
     def at_imu_gaps(self, offset: float, use: np.ndarray) -> np.ndarray:
         """The pings ``use`` (win, window) less those the IMU's gaps (:func:`imu_gaps`) leave unfitted at ``offset``
-        s: across a gap the integrals hold the last sample. A window of the clock search (``trim``) is cut there as
-        it is at the IMU's ends: the pings stamped inside a gap are left out, and those on either side of it keep
-        their own fit (:meth:`segments`) where they are at least :data:`MIN_WINDOW_PINGS`; any other window spanning
-        a gap, or with one between its pings, is left out whole (the DVL checks fit whole windows)."""
+        s: across a gap the integrals hold the last sample. A window is cut there as the clock search's (``trim``)
+        is at the IMU's ends: the pings stamped inside a gap are left out, and those on either side of it keep their
+        own fit (:meth:`segments`) where they are at least :data:`MIN_WINDOW_PINGS`. The DVL checks' windows are cut so
+        too, where they were left out whole: 0.4 s of IMU rows missing every 4 s left an A-KIT log no window to judge
+        (:data:`IMU_GAP_MIN_S`)."""
         if not (len(self.imu.gaps) and use.size):       # no gap, or a DVL broken up into no window at all
             return use
         t = self.t + offset
-        if not self.trim:
-            first = np.min(np.where(use, t, np.inf), axis=1)[:, None]
-            last = np.max(np.where(use, t, -np.inf), axis=1)[:, None]
-            start, end = self.imu.gaps[:, 0], self.imu.gaps[:, 1]
-            return use & ~np.any((start < last) & (end > first), axis=1)[:, None]
         side = np.searchsorted(self.imu.gaps[:, 1], t, side="right")       # gaps ended by each ping
         use = use & (np.searchsorted(self.imu.gaps[:, 0], t, side="left") == side)     # none begun and not ended
         part = side - np.min(np.where(use, side, side.max()), axis=1, keepdims=True)
@@ -375,7 +371,7 @@ class _WindowModel:
         gaps at ``offset`` s (:meth:`at_imu_gaps`): each is fitted on its own, with its own ``v0`` and ``g0`` and its
         own straight line, as the windows :func:`window_rows` cuts at a DVL outage are. None where no window has
         pings on two sides of a gap."""
-        if not (self.trim and len(self.imu.gaps) and use.size):
+        if not (len(self.imu.gaps) and use.size):
             return None
         side = np.searchsorted(self.imu.gaps[:, 1], self.t + offset, side="right")
         part = np.where(use, side - np.min(np.where(use, side, side.max()), axis=1, keepdims=True), 0)
@@ -388,8 +384,8 @@ class _WindowModel:
         (None when no window has any). Models of the same DVL stamps and IMU integrals, whose velocities differ
         only by a turn, share them (pass as ``at`` to :meth:`score`): interpolating them is most of a score's cost."""
         imu = self.imu
-        # a mask given is cut at the IMU's gaps for the clock search's parts; the DVL checks' own masks are kept
-        use = self.pings(offset) if use is None else self.at_imu_gaps(offset, use) if self.trim else use
+        # a mask given is cut at the IMU's gaps as the model's own is: the DVL checks' too, which held samples misled
+        use = self.pings(offset) if use is None else self.at_imu_gaps(offset, use)
         windows = use.any(axis=1)
         if not windows.any():
             return use, windows, None

@@ -2047,6 +2047,9 @@ class StreamScreen:
         #: did: that jump was a corrupted stamp, and the next starts a new one)
         self._imu_jump_run = 0
         self._jump_open = False
+        #: since the jump of :attr:`clock_jump` opened: whether a stream other than the IMU went on past it on the old
+        #: clock, and whether one had a sample refused for it (:attr:`imu_alone`)
+        self._others_on = self._others_off = False
 
     def stamp_problem(self, stream: str, t: float) -> str | None:
         """Why a stamp of ``stream`` is refused: beyond the bounds, or a jump of more than
@@ -2061,11 +2064,16 @@ class StreamScreen:
         if why is not None:
             if not self._jump_open:
                 self.clock_jump, self._jump_open, self._imu_jump_run = (stream, self._newest, t), True, 0
+                self._others_on = self._others_off = False
             self.jumped[stream] = self.jumped.get(stream, 0) + 1
             self._imu_jump_run += stream == "imu"
+            self._others_off |= stream != "imu"
             return why
-        if stream == "imu" and self._jump_open and t > self.clock_jump[1]:
-            self._jump_open = False     # the IMU went on past the jump on the old clock: no step
+        if self._jump_open and t > self.clock_jump[1]:
+            if stream == "imu":
+                self._jump_open = False     # the IMU went on past the jump on the old clock: no step
+            else:
+                self._others_on = True
         self._newest = max(self._newest, t)
         self.oldest = min(self.oldest, t)
         return None
@@ -2076,17 +2084,29 @@ class StreamScreen:
         up to a step)."""
         return self._jump_open and self._imu_jump_run >= CLOCK_JUMP_CONFIRM_S * self.config.imu_rate_hz
 
+    @property
+    def imu_alone(self) -> bool:
+        """Whether only the IMU's samples were refused for the jump of :attr:`clock_jump` while another stream went
+        on past it on the old clock: the IMU's stamps are off the clock the others share (an IMU stamped from its
+        boot among streams on Unix time), no step of the shared clock; the stream neither starts over on the IMU's
+        clock nor is split there."""
+        return self._jump_open and self._others_on and not self._others_off
+
     def clock_jump_text(self, received: dict[str, int], refused_stream: str = "imu") -> str:
         """The clock jump of :attr:`clock_jump` in words, with the samples of each stream (``received``: counts
         per stream) it refused; when ``refused_stream``, mostly refused for jumps, is not the IMU and no IMU sample
-        jumped, its own clock is days off the others' (splitting the stream would not help)."""
+        jumped, or is the IMU and jumped alone (:attr:`imu_alone`), its own clock is days off the others' (splitting
+        the stream would not help)."""
         stream, before, after = self.clock_jump
-        if refused_stream != "imu" and not self.jumped.get("imu"):
+        own_clock = self.imu_alone if refused_stream == "imu" else not self.jumped.get("imu")
+        if own_clock:
             n = self.jumped.get(refused_stream, 0)
+            others = ("the IMU's", "the IMU went on") if refused_stream != "imu" else ("the other streams'",
+                                                                                       "they went on")
             return (f"{n} of {received.get(refused_stream, n)} {refused_stream} samples are stamped more than "
-                    f"{MAX_STAMP_GAP_S:g} s {'ahead of' if after > before else 'behind'} the IMU's (by "
+                    f"{MAX_STAMP_GAP_S:g} s {'ahead of' if after > before else 'behind'} {others[0]} (by "
                     f"{abs(after - before):.6g} s at t = {before:.3f} s) "
-                    f"while the IMU went on: the {refused_stream} stamps are not on the clock the other streams "
+                    f"while {others[1]}: the {refused_stream} stamps are not on the clock the other streams "
                     "share; correct its stamps (their offset) or its clock")
         refused = ", ".join(f"{n} of {received.get(s, n)} {s}" for s, n in self.jumped.items())
         return (f"the clock jumped {clock_jump_words(before, after)} at t = {before:.3f} s, "

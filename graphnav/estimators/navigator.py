@@ -604,9 +604,18 @@ class Navigator:
         ``stream``: that of the sample being refused. Before the estimator started, with no more of the stream on the
         old clock than the second of IMU samples on the new one that confirmed the step (or all of it still in the
         reorder buffer), the stream starts over on the new clock instead (:meth:`_start_over_on_new_clock`): a
-        logger's first fraction of a second stamped before its clock was set is longer than the reorder window."""
+        logger's first fraction of a second stamped before its clock was set is longer than the reorder window. The
+        IMU alone off the clock the other streams go on with (:attr:`~graphnav.core.screening.StreamScreen.imu_alone`)
+        is no step: refused while it is so from its start, named as on its own clock once it left the shared one."""
         if not self._screen.clock_stepped():
             return
+        if self._screen.imu_alone:
+            # an IMU stamped on its own clock from the start (its boot) is refused until it comes on the shared one,
+            # and named at the end if it never does; one that went on the shared clock and left it alone is named now
+            imu_kept = self.received.get("imu", 0) - self.samples_refused.get("imu", 0) - (stream == "imu")
+            if self.backend is None and imu_kept <= CLOCK_JUMP_CONFIRM_S * self.config.imu_rate_hz:
+                return
+            raise DataError(f"navigator: {self._screen.clock_jump_text(self.received)}", "imu", field="t")
         old_clock_s = self._screen.clock_jump[1] - self._screen.oldest
         if self.backend is None and (self._released == -math.inf or old_clock_s <= CLOCK_JUMP_CONFIRM_S):
             self._start_over_on_new_clock(stream)

@@ -25,10 +25,11 @@ from graphnav.core.screening import (EXACT_COPY, IMU_FILLER, MAX_STAMP_GAP_S, NU
                                      say_nudged_copies, zeroed_filler)
 from graphnav.core.streams import add_note, count_refused, say_doubted
 from graphnav.io import bag_fields
-from graphnav.io.bag_stamps import (CLOCK_DRIFT_NOTE_S, HEADER_CLOCK_DRIFT, HEADER_CLOCK_DRIFT_UNTOLD,
-                                    HEADER_CLOCK_STEP, HEADER_STEP_SPREADS, clock_step_moved, latency_drop,
-                                    latency_rate, latency_step, nearer_the_receive_clock, on_the_grid, say_set_right,
-                                    say_steps_back, steps_back_repaired)
+from graphnav.io.bag_stamps import (CLOCK_DRIFT_MAX_RATE, CLOCK_DRIFT_NOTE_S, HEADER_CLOCK_DRIFT,
+                                    HEADER_CLOCK_DRIFT_UNTOLD, HEADER_CLOCK_STEP, HEADER_STEP_SPREADS,
+                                    RECEIVED_OFF_PACE, clock_step_moved, latency_drop, latency_rate, latency_step,
+                                    nearer_the_receive_clock, on_the_grid, say_set_right, say_steps_back,
+                                    steps_back_repaired)
 from graphnav.io.bag_msgs import MARINE_DVL, WL_DVL
 
 #: FLU <-> FRD (its own inverse) and ENU <-> NED (its own inverse).
@@ -355,7 +356,9 @@ def header_clock_drift_removed(s: Stream, source: str, meta: dict, kind: str, cl
     :data:`~graphnav.io.bag_stamps.CLOCK_DRIFT_NOTE_S` over the topic is a clock running fast or slow (a DVL's own
     oscillator 1 % slow ends 1.5 s behind after 150 s). Warned naming the topic and the field, every message
     counted as doubted on ``kind``; the stamps are moved onto the IMU's rate from the first message on when the drift
-    is over :data:`HEADER_STEP_SPREADS` of the latency's spread about its line, else kept (the warning says so)."""
+    is over :data:`HEADER_STEP_SPREADS` of the latency's spread about its line, else kept (the warning says so). A
+    drift faster than :data:`~graphnav.io.bag_stamps.CLOCK_DRIFT_MAX_RATE` is no clock's: the topic received at
+    another pace than stamped (replayed, written into the bag later), warned and counted, its header stamps kept."""
     if s.stamp_kind != "header" or s.receive_ns is None:
         return s
     t_ns = np.asarray(s.t_ns, np.int64)
@@ -366,9 +369,16 @@ def header_clock_drift_removed(s: Stream, source: str, meta: dict, kind: str, cl
     if abs(drift) <= CLOCK_DRIFT_NOTE_S:
         return s
     clear = abs(drift) > HEADER_STEP_SPREADS * spread
+    seen = (f"header minus receive time drifts {drift:+.3f} s over the {span:.1f} s of its {len(t_ns)} messages "
+            f"({spread:.3f} s spread about that line)")
+    if abs(rate) > CLOCK_DRIFT_MAX_RATE:
+        say_doubted(meta, kind, source, f"{s.topic}, field 'receive time': {seen}, {abs(rate) * 100:.1f} % against "
+                    f"the IMU's, more than a clock drifts ({CLOCK_DRIFT_MAX_RATE:.0%}): the topic was received at "
+                    "another pace than it was stamped (replayed, or written into the bag later); the header stamps "
+                    "are kept", RECEIVED_OFF_PACE, len(t_ns), stacklevel=2)
+        return s
     text = (f"{s.topic}, field '{STAMP_FIELDS['header']}': the header clock runs {abs(rate) * 100:.3f} % "
-            f"{'fast' if rate > 0 else 'slow'} against the IMU's: header minus receive time drifts {drift:+.3f} s "
-            f"over the {span:.1f} s of its {len(t_ns)} messages ({spread:.3f} s spread about that line); ")
+            f"{'fast' if rate > 0 else 'slow'} against the IMU's: {seen}; ")
     if not clear:
         say_doubted(meta, kind, source, text + "too spread to take the drift out: the header stamps are kept",
                     HEADER_CLOCK_DRIFT_UNTOLD, len(t_ns), stacklevel=2)

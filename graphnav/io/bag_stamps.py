@@ -78,16 +78,29 @@ def set_right(latency: np.ndarray, k: int, step: float, clock_s: float = 0.0, lo
     return min(off) > CLOCK_OFFSET_NOTE_S >= min(abs(before + step - c) for c in (0.0, clock_s))
 
 
+#: Header minus receive time jumping on more than this share of a topic's messages is the recorder's delivery (an
+#: IMU's samples received in packets: a sawtooth of a packet's length), not a header clock's steps.
+LATENCY_JUMPS_MAX_SHARE = 0.25
+
+
 def latency_jumps(latency: np.ndarray, period_s: float) -> np.ndarray:
     """The messages at which header minus receive time ``latency`` (s) jumps, either way, by more than a quarter of
     the period ``period_s`` (s) and :data:`HEADER_STEP_SPREADS` of its spread from one message to the next: where a
     header clock may step, and the bounds of the stretch each step is judged over (a clock off for a few messages,
-    then back, is two steps close together)."""
+    then back, is two steps close together). Jumps on more than :data:`LATENCY_JUMPS_MAX_SHARE` of the messages are
+    the recorder's delivery: then only those over :data:`HEADER_STEP_SPREADS` of the latency's own spread, and none
+    when they are still as many."""
     dl = np.diff(latency)
     if not dl.size:
         return np.zeros(0, int)
-    spread = float(np.median(np.abs(dl - np.median(dl))))
-    return np.flatnonzero(np.abs(dl) > max(period_s / 4, HEADER_STEP_SPREADS * spread)) + 1
+    for x in (dl, latency):
+        # jumping on most messages: the recorder's delivery (an IMU's samples in packets: a sawtooth of header minus
+        # receive time), not a clock's steps; those are the jumps beyond that latency's own spread
+        spread = float(np.median(np.abs(x - np.median(x))))
+        jumps = np.flatnonzero(np.abs(dl) > max(period_s / 4, HEADER_STEP_SPREADS * spread)) + 1
+        if jumps.size <= LATENCY_JUMPS_MAX_SHARE * dl.size:
+            return jumps
+    return np.zeros(0, int)
 
 
 def _returns(latency: np.ndarray, k: int, step: float, spread: float) -> bool:
@@ -145,9 +158,12 @@ def clock_step_moved(t_ns: np.ndarray, latency: np.ndarray, j: int, step: float,
     jump = (int(t_ns[j]) - int(t_ns[j - 1])) / 1e9
     periods = max(1, round((jump - step) / period_s))
     shift_ns = int(round((jump - periods * period_s) * 1e9))
-    before = stream != "imu" and set_right(latency, j, step, clock_s, lo)
+    # a stretch between a jump and a jump back by as much (a glitch) goes onto the clock either side of it, any
+    # topic's, the IMU's too: moving the rest onto the glitch's clock moved (and counted) all after it twice
+    glitch = bool(lo) and _returns(latency, lo, step, spread)
+    before = glitch or (stream != "imu" and set_right(latency, j, step, clock_s, lo))
     if before:
-        moved = slice(lo if lo and _returns(latency, lo, step, spread) else 0, j)
+        moved = slice(lo if glitch else 0, j)
     else:
         shift_ns = -shift_ns
         moved = slice(j, hi if hi < len(t_ns) and _returns(latency, hi, step, spread) else len(t_ns))
@@ -255,8 +271,12 @@ def say_steps_back(steps: list[dict], meta: dict, stream: str, label: str, stack
 CLOCK_DRIFT_NOTE_S = 0.1
 #: Messages a topic needs for its clock's drift to be judged.
 CLOCK_DRIFT_MIN_MESSAGES = 20
+#: Header minus receive time running faster than this against the IMU's (s per s) is no clock's drift (a crystal 5 %
+#: off): the receive time is not when the messages came (a topic replayed faster, or written into the bag later).
+CLOCK_DRIFT_MAX_RATE = 0.05
 HEADER_CLOCK_DRIFT = "stamped by a header clock drifting against the IMU's (moved onto its rate)"
 HEADER_CLOCK_DRIFT_UNTOLD = "stamped by a header clock that may drift against the IMU's (kept: too spread to tell)"
+RECEIVED_OFF_PACE = "received at a pace no clock drifts by (the header stamps kept)"
 
 
 def latency_rate(t_ns: np.ndarray, receive_ns: np.ndarray) -> tuple[float, float]:

@@ -39,11 +39,11 @@ then equals RDI's bottom-track beam velocity as recorded, and a convex head has 
   bytes before the first ensemble (a logger that started mid-ensemble or wrote a preamble), bytes between two whole
   ensembles (a CR LF or time tag a logger wrote, a header written twice; both ensembles are read), bytes after the
   last one and a second recording joined behind the first without a cut (its numbers start again: warned and
-  read on where its clock runs on, refused where it runs back) and an ensemble written
-  again byte for byte anywhere after itself (a logger's retry, a file appended to itself: the same ping twice,
-  which dolfyn cannot read or reads as time running back); an ensemble cut short by the next one whose bytes are
-  those of an ensemble read whole (or of the one the file ends in) is such a copy too: the cut end of a file with a
-  copy of it joined behind, not a corrupt ensemble.
+  read on where its clock runs on, refused where it runs back or the frame of its velocities differs) and an
+  ensemble written again byte for byte anywhere after itself (a logger's retry, a file appended to itself: the
+  same ping twice, which dolfyn cannot read or reads as time running back); an ensemble cut short by the next one
+  whose bytes are those of an ensemble read whole (or of the one the file ends in) is such a copy too: the cut end
+  of a file with a copy of it joined behind, not a corrupt ensemble.
 * ensembles stored out of time order are put in order by their own clock (the variable leader's RTC) when their
   ensemble numbers agree (counted on across a roll-over 65535 -> 0 without the high byte, also where other
   ensembles of the file carry it), warned about and
@@ -404,21 +404,25 @@ def _runs_on(before: int, after: int) -> bool:
 
 
 #: A second recording joined behind the first without a cut: the ensemble numbers start again and the clock jumps
-#: on by more than this many of the file's median steps (an instrument restarted within a ping or two keeps its time).
+#: on by more than this many of the file's median steps, or on by less and the numbers run on from where they
+#: started again (an instrument restarted within seconds keeps its time, but is restarted: its set-up may differ).
 JOIN_GAP_STEPS = 10
 
 
 def _joins(numbers: np.ndarray, t: np.ndarray, spans: list) -> list:
     """``(number, byte offset, number, byte offset, gap s)`` of each place where, in time order (``numbers``, clock
     ``t`` Unix s, ``spans``), the ensemble numbers start again (not after the one before) while the clock jumps on by
-    more than :data:`JOIN_GAP_STEPS` median steps: a second recording (the instrument restarted later, files of two
-    recordings concatenated) joined behind the first without a cut."""
+    more than :data:`JOIN_GAP_STEPS` median steps, or on by less and the next number runs on from the new one and is
+    still behind the old one (a single number out of line is no restart): a second recording (the instrument
+    restarted, files of two recordings concatenated) joined behind the first without a cut."""
     if len(t) < 3 or min(numbers) < 0:
         return []
     dt_s = np.diff(t)
     step = float(np.median(dt_s[dt_s > 0])) if np.any(dt_s > 0) else 0.0
+    restarted = [i + 2 == len(t) or _runs_on(numbers[i + 1], numbers[i + 2]) and _runs_on(numbers[i + 2], numbers[i])
+                 for i in range(len(dt_s))]
     return [(int(numbers[i]), spans[i][0], int(numbers[i + 1]), spans[i + 1][0], float(dt_s[i]))
-            for i in np.flatnonzero(dt_s > JOIN_GAP_STEPS * step)
+            for i in np.flatnonzero((dt_s > JOIN_GAP_STEPS * step) | ((dt_s > 0) & np.array(restarted)))
             if not _runs_on(numbers[i], numbers[i + 1])]
 
 
@@ -911,6 +915,9 @@ def _dataset(path: Path, scan: Pd0Scan):
         if change:          # two instruments' recordings joined: why their clocks and numbers disagree
             raise DataError(f"{change}; {one_instrument}", source)
         raise DataError(f"the ensembles cannot be put in time order: {scan.unplaced}", source, field="time")
+    frame = "" if change else _frame_change(path.read_bytes(), scan)
+    if frame:
+        raise DataError(frame, source)
     if scan.moved:
         warnings.warn(f"{source}: {scan.moved} ensemble(s) stored out of time order ({scan.order_note}) sorted by "
                       "their own clock (the variable leader's), with which their ensemble numbers agree",
@@ -953,15 +960,40 @@ def _instrument_change(raw: bytes, scan: Pd0Scan) -> str:
     """Where the instrument (firmware, beams, serial: :data:`INSTRUMENT_BYTES` of the fixed leader) first changes
     between ensembles next in the file, said with what a user can do; "" when it never does: recordings of two
     instruments joined in one file, which dolfyn cannot read."""
-    def instrument(start: int) -> bytes:
-        offsets = struct.unpack_from(f"<{raw[start + 5]}H", raw, start + 6)
-        fixed = next((start + o for o in offsets if raw[start + o:start + o + 2] == b"\x00\x00"), None)
-        return b"" if fixed is None else bytes(raw[fixed + i] for i in INSTRUMENT_BYTES if fixed + i < len(raw))
     in_file = sorted(zip((a for a, _ in scan.spans), scan.numbers))
     for (a, n), (b, m) in zip(in_file, in_file[1:]):
-        if instrument(a) != instrument(b):
+        if _fixed_bytes(raw, a, INSTRUMENT_BYTES) != _fixed_bytes(raw, b, INSTRUMENT_BYTES):
             return (f"the instrument (firmware, beams or serial number of the fixed leader) changes from ensemble {n} "
                     f"(byte {a}) to ensemble {m} (byte {b}): recordings of two instruments joined in one file; load "
+                    f"each from a file of its own (the bytes before {b} and from {b} on)")
+    return ""
+
+
+def _fixed_bytes(raw: bytes, start: int, which: tuple) -> bytes:
+    """The bytes ``which`` (offsets) of the fixed leader of the ensemble at byte ``start``; b"" without one."""
+    offsets = struct.unpack_from(f"<{raw[start + 5]}H", raw, start + 6)
+    fixed = next((start + o for o in offsets if raw[start + o:start + o + 2] == b"\x00\x00"), None)
+    return b"" if fixed is None else bytes(raw[fixed + i] for i in which if fixed + i < len(raw))
+
+
+#: The fixed leader's byte of the EX command (coordinate transformation): bits 3-4 the frame of the velocities.
+EX_BYTE = 25
+#: The frame of each value of the EX bits 3-4 (RDI P/N 951-6079-00), graphnav's names (:attr:`DvlLog.frame`).
+EX_FRAMES = ("beam", "instrument", "ship", "earth")
+
+
+def _frame_change(raw: bytes, scan: Pd0Scan) -> str:
+    """Where the frame of the velocities (the EX bits of the fixed leader) first changes between ensembles next in
+    time (:attr:`Pd0Scan.spans`), said with what a user can do; "" when it never does: a second recording set up in
+    another frame joined behind the first, which dolfyn would read in one frame."""
+    def frame(start: int) -> str:
+        ex = _fixed_bytes(raw, start, (EX_BYTE,))
+        return EX_FRAMES[(ex[0] >> 3) & 3] if ex else ""
+    for (a, _), (b, _), n, m in zip(scan.spans, scan.spans[1:], scan.numbers, scan.numbers[1:]):
+        if frame(a) != frame(b):
+            return (f"the frame of the velocities (EX bits of the fixed leader) changes from {frame(a)} in ensemble "
+                    f"{n} (byte {a}) to {frame(b)} in ensemble {m} (byte {b}): recordings set up differently joined in "
+                    f"one file, which dolfyn would read in one frame (the pings of one turned as the other's); load "
                     f"each from a file of its own (the bytes before {b} and from {b} on)")
     return ""
 
@@ -1202,14 +1234,16 @@ def _after_pauses(t: np.ndarray, spread: np.ndarray, groups: tuple, stalled: np.
     starts, sizes, room = groups
     if not stalled.any() or not np.isfinite(period):
         return spread
-    pauses = starts[~stalled & (sizes == 1) & np.isfinite(room) & (room > PAUSE_PERIODS * period)]
+    paused = ~stalled & (sizes == 1) & np.isfinite(room) & (room > PAUSE_PERIODS * period)
+    pauses = starts[paused]
     if len(pauses) < 2:
         return spread
     burst = int(np.min(np.diff(pauses)))
     if burst < 2 or np.any(np.diff(pauses) % burst):
         return spread
+    pause_s = float(np.median(room[paused]))       # from a burst's last ping to the next one's first
     spread = spread.copy()
-    for g in np.flatnonzero(stalled & np.isfinite(room) & (room > (sizes + PAUSE_PERIODS) * period)):
+    for g in np.flatnonzero(stalled & (room > (sizes + PAUSE_PERIODS) * period)):
         first, end = starts[g], starts[g] + sizes[g]
         before = pauses[pauses < first]
         if not len(before):
@@ -1217,7 +1251,13 @@ def _after_pauses(t: np.ndarray, spread: np.ndarray, groups: tuple, stalled: np.
         pause = before[-1] + burst * int(np.ceil((first - before[-1]) / burst))      # the last ping of its burst
         if pause < end - 1:
             after = np.arange(pause + 1, end)
-            spread[after] = t[first] + room[g] - (end - after) * period
+            ends = np.arange(pause, end, burst)          # the last pings of the bursts it stood across
+            if np.isfinite(room[g]):                     # back from the jump over the pauses still ahead of each
+                ahead = np.sum(ends[None, :] >= after[:, None], axis=1)
+                spread[after] = t[first] + room[g] - (end - after) * period - ahead * (pause_s - period)
+            else:                                        # never ran on: on from its time over the pauses behind each
+                behind = np.sum(ends[None, :] < after[:, None], axis=1)
+                spread[after] = t[first] + (after - first) * period + behind * (pause_s - period)
     return spread
 
 
@@ -1273,7 +1313,10 @@ def _stalled_groups(sizes: np.ndarray, room: np.ndarray, resolution: float) -> t
     the pings (most runs shared), whose shared times are its ticks."""
     stalled, period = np.zeros(len(sizes), bool), float("nan")
     if _own_times(sizes):
-        period = float(np.median(room[:-1][(sizes == 1)[:-1]]))
+        steps = room[:-1][(sizes == 1)[:-1]]
+        period = float(np.median(steps))
+        if resolution >= WHOLE_SECOND_TICK_S:       # its steps are the period rounded to its tick: their mean is it
+            period = float(np.mean(steps[steps <= period + resolution]))         # (gaps left out)
         stalled = (sizes - 1 - STALL_MARGIN_PERIODS) * period > resolution
     frozen = sizes > FROZEN_CLOCK_PINGS
     if not frozen.any() or np.isfinite(period):
@@ -1327,16 +1370,25 @@ def _stall_note(t: np.ndarray, spread: np.ndarray, stalled: np.ndarray, where: l
     nxt = t[t > t[first]]
     jump = f"then jumped {nxt[0] - t[first]:.2f} s" if len(nxt) else "to the end of the file"
     runs = int(np.sum(stalled[1:] & ~stalled[:-1]) + stalled[0])
-    starts, sizes, _ = _time_groups(t)
+    starts, sizes, room = _time_groups(t)
     own = _own_times(sizes)
     rank = np.arange(len(t)) - np.repeat(starts, sizes)
     paused = int(np.sum(stalled & (spread - t > rank * period + 1e-6)))
-    tail = (f"; {paused} of them after the pause between bursts it stood still across, at the ping period back from "
-            "the time it jumped to") if paused else ""
+    tail = (f"; {paused} of them after the pause between bursts it stood still across, put after each pause it stood "
+            "across (as long as the clock's other pauses) at the ping period") if paused else ""
     if stalled[-1]:
         tail += (f"; after its last time ({_utc(t[-1])}) it never ran on: those {int(np.sum(t == t[-1]))} pings are "
                 f"dead-reckoned at the ping period ({period:.3f} s, "
                 f"{'its steps' if own else 'what its stalls ended in'}), not squeezed into its tick")
+    lost = (np.add.reduceat(stalled, starts) > 0) & (room < (sizes - 1 - STALL_MARGIN_PERIODS) * period)
+    if lost.any():          # the clock ran on from where it stood, not from the right time: it lost the stall
+        g = int(np.flatnonzero(lost)[0])
+        need_s = sizes[g] * period
+        tail += (f"; after the {sizes[g]} pings at {_utc(t[starts[g]])} it ran on only {room[g]:.2f} s where they take "
+                 f"{need_s:.1f} s at the ping period: the clock lost about {need_s - room[g]:.1f} s "
+                 "there (it ran on from where it stood), so those pings are squeezed into that step and every time "
+                 "after it is that much early" + (f" ({int(lost.sum())} such stall(s))" if lost.sum() > 1 else "")
+                 + "; give the pings their times if another clock has them (a CSV of DVL velocities: t, vx, vy, vz)")
     return (f"the DVL's clock stood still: {run} pings from {where[head]} share its time {_utc(t[first])}, "
             f"{jump}, " + ("while elsewhere it gives each ping a time of its own" if own else
                            "more pings than a DVL takes within one tick of its clock")
