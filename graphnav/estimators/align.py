@@ -52,6 +52,12 @@ Expected accuracy (1-sigma; ``L`` latitude, ``Omega`` Earth rate, ``g`` gravity,
 * roll/pitch: about ``sqrt((b_a / g)^2 + (sqrt(12 / N) sigma_v / (g T))^2 + (b_g T / 2)^2)``, plus the heading
   error times the Earth's turn since t0 (the n0 vertical is no longer the local one): from the fit.
 
+IMU gaps of 0.2-2.5 s (:data:`GAP_JOINED_S`) are joined: each stretch after one is turned by a fitted rotation (b0,
+on the left) and its velocity change offset, with priors from the rates and specific forces around the gap
+(:func:`_gap_priors`); a gyrocompassed heading is then checked from starts turned 90 deg either way and refused when
+they fit as well elsewhere (:meth:`Aligner._solve_checked`). Levelling with a given heading or a heading source
+joins them as well.
+
 Robustness: a single bad sample must not move the alignment. The aligner refuses what the screening of
 :mod:`graphnav.core.screening` refuses (an IMU value beyond the instrument's full scale; a ping beyond the
 vehicle's speed or ``|v_z|``, or a spike against the median of the last pings), and the fit itself rejects
@@ -106,7 +112,8 @@ FIXED_PRIOR = 1e12
 FIT_ITERATIONS = 3
 
 
-#: IMU gaps up to this long, s, are held over by the alignment (:meth:`Aligner.imu_gap`); longer ones start it again.
+#: IMU gaps up to this long, s, are held over by the alignment (:meth:`Aligner.imu_gap`); longer ones are joined
+#: (:data:`GAP_JOINED_S`) or start it again.
 #: Bridged, a loss of every sensor moved the gyrocompassed heading of a 150 s simulated stream 0.09 deg for 0.06 s
 #: (samples refused as out of order), 0.38 deg for 0.5 s, 3.9 deg for 1 s, 23 deg for 2 s (its sigma 0.8 deg); a
 #: step of the clock, which the stamps cannot tell from a loss, moves it at any length (0.03 s: 5 deg, 0.5 s: 54 deg).
@@ -114,6 +121,20 @@ FIT_ITERATIONS = 3
 #: (seeds 2-4, drift at the end 0.2-5.2 m clean) added up to 0.9 / 4.5 / 12 / 42 m, all said ok; started again
 #: after a 0.6 s loss, 1.0-3.4 m.
 GAP_CARRIED_S = 0.2
+#: IMU gaps longer than :data:`GAP_CARRIED_S` and up to this long, s, are joined (:meth:`Aligner.imu_gap`): the
+#: alignment keeps the data on both sides and fits the rotation and velocity change across each such gap with a prior
+#: from the rates around it (:func:`_gap_priors`); longer gaps start it again. 2.5 s takes the 2 s losses of a logger
+#: (measured 2.01-2.1 s between the samples either side) and stays below the 5 s clock steps and losses the
+#: estimators' tests stream, whose bridge was off by 4 deg of roll (docs/decisions/alignment.md).
+GAP_JOINED_S = 2.5
+#: Turns, rad, of the second and third starts of a fit across joined IMU gaps (:meth:`Aligner._solve_checked`).
+HEADING_CHECK_TURNS_RAD = (np.pi / 2, -np.pi / 2)
+#: A fit from another start that ends elsewhere with a cost (chi-square) less than this much higher is as good.
+HEADING_CHECK_CHI2 = 9.0
+#: IMU time, s, after which an alignment refused for an undetermined heading is tried again (live); twice as long after
+#: each further refusal (a fit over 300-400 s of A-KIT data with 75-98 joined gaps took 1.0-3.8 s, and two or
+#: three of them make a check).
+HEADING_RECHECK_S = 60.0
 
 
 class AlignmentError(ConfigError):
@@ -334,6 +355,14 @@ class Aligner:
         self._dvl_spike = SpikeTest(spec.max_accel_mps2, spec.jump_tolerance_mps)
         # IMU gaps (t0, t1) s met so far, and the longest stretch of data before the last of them (imu, dvl, depth)
         self.imu_gaps: list[tuple[float, float]] = []
+        # IMU gaps (t0, t1) s the alignment joins over (:data:`GAP_JOINED_S`): fitted, not started again after
+        self.joined_gaps: list[tuple[float, float]] = []
+        # (IMU stamp to fit again at, s, why) when joined gaps last left the heading undetermined (_solve_checked),
+        # and how many times in a row they did
+        self._undetermined: tuple[float, str] | None = None
+        self._n_undetermined = 0
+        # why the alignment started again after joined IMU gaps (_fall_back), for Alignment.info
+        self._not_joined: str | None = None
         self._before_gap: tuple[list, list, list] | None = None
 
     # --- input ------------------------------------------------------------------------------------
@@ -401,21 +430,36 @@ class Aligner:
         self._headings.append((float(t), float(yaw), float(sigma)))
 
     def imu_gap(self, t0: float, t1: float) -> None:
-        """The IMU stream has a gap from ``t0`` to ``t1`` (s; a loss of samples, or the clock stepped): the gyros
-        cannot carry the attitude over it (a bridge of 5 s at 0.014 rad/s, straight through a roll the vehicle was
-        not making, tilted the rest 4 deg: 0.7 m/s^2 of gravity into the levelling), so the alignment starts again
-        after it. The data before it are kept while they are the longest stretch without a gap: when the data end
-        (:meth:`missing`, ``end_of_data``) the alignment is over the longest stretch (:attr:`t_first`). A gap of at
-        most :data:`GAP_CARRIED_S` is held over as any other step."""
+        """The IMU stream has a gap from ``t0`` to ``t1`` (s; a loss of samples, or the clock stepped).
+
+        A gap of at most :data:`GAP_CARRIED_S` is held over as any other step. One of at most :data:`GAP_JOINED_S`
+        is joined: the alignment keeps the data either side, bridges the gap by interpolation and fits the bridge's
+        error (its turn, with a prior from the rates around the gap that also covers a clock step, and its velocity
+        change; :func:`_gap_priors`); a gyrocompassed heading that such gaps leave undetermined is refused
+        (:meth:`_solve_checked`). Over a longer gap the gyros cannot carry the attitude (a bridge of 5 s at
+        0.014 rad/s, straight through a roll the vehicle was not making, tilted the rest 4 deg: 0.7 m/s^2 of gravity
+        into the levelling), so the alignment starts again after it. The data before it are kept while they are the
+        longest stretch without such a gap: when the data end (:meth:`missing`, ``end_of_data``) the alignment is
+        over the longest stretch (:attr:`t_first`)."""
         if t1 - t0 <= GAP_CARRIED_S:
             return
-        self.imu_gaps.append((float(t0), float(t1)))
+        if t1 - t0 <= GAP_JOINED_S:
+            self.joined_gaps.append((float(t0), float(t1)))
+            return
+        self._start_again(float(t0), float(t1))
+
+    def _start_again(self, t0: float, t1: float) -> None:
+        """Start the alignment again after the IMU gap from ``t0`` to ``t1`` (s): the samples from ``t1`` on (none
+        live, where the gap is told before its next sample) stay, those before it are kept while they are the
+        longest stretch (:meth:`_take_longest_stretch`)."""
+        self.imu_gaps.append((t0, t1))
         if not self._imu:
             return
-        held = (self._imu, [d for d in self._dvl if d[0] <= t0], [d for d in self._depth if d[0] <= t0])
+        k = bisect.bisect_left([s[0] for s in self._imu], t1)
+        held = (self._imu[:k], [d for d in self._dvl if d[0] <= t0], [d for d in self._depth if d[0] <= t0])
         if self._before_gap is None or _span(held[0]) > _span(self._before_gap[0]):
             self._before_gap = held
-        self._imu, self._dvl, self._depth = [], [d for d in self._dvl if d[0] > t0], \
+        self._imu, self._dvl, self._depth = self._imu[k:], [d for d in self._dvl if d[0] > t0], \
             [d for d in self._depth if d[0] > t0]
 
     def _take_longest_stretch(self) -> None:
@@ -437,6 +481,14 @@ class Aligner:
         where = ", ".join(f"{t1 - t0:.3g} s after t = {t0:.3f} s" for t0, t1 in self.imu_gaps[:3])
         return (f" (the IMU gap{'s' * (len(self.imu_gaps) > 1)} {where} split{'s' * (len(self.imu_gaps) == 1)} "
                 "the data: the attitude is not carried over a gap, and the longest stretch without one counts)")
+
+    def _joined_steps(self, t_imu: np.ndarray) -> np.ndarray:
+        """Indices i of the steps from sample i to i + 1 (stamps ``t_imu``, s) that are joined IMU gaps."""
+        if not self.joined_gaps:
+            return np.zeros(0, int)
+        i = np.searchsorted(t_imu, [g[0] for g in self.joined_gaps], side="right") - 1
+        i = np.unique(i[(i >= 0) & (i < len(t_imu) - 1)])
+        return i[np.diff(t_imu)[i] > GAP_CARRIED_S]
 
     def _trim(self) -> None:
         t_last = self._imu[-1][0]
@@ -475,6 +527,8 @@ class Aligner:
             out.append("no IMU samples (add_imu)")
         elif span < need:
             out.append(f"IMU data cover {span:.1f} s of the {need:g} s needed" + self._gap_note())
+        if self._recheck_pending(end_of_data) and not self._after_last_joined_ready():
+            out.append(self._undetermined[1])
         if len(self._dvl) < o.min_dvl_pings:
             out.append(f"{len(self._dvl)} DVL pings with >= 3 valid beams (bottom lock), {o.min_dvl_pings} needed "
                        "(add_dvl): a moving vehicle is levelled with the DVL velocity change")
@@ -524,8 +578,114 @@ class Aligner:
 
     @property
     def ready(self) -> bool:
-        """True when :meth:`result` can produce an :class:`Alignment`."""
-        return not self.missing()
+        """True when :meth:`result` can produce an :class:`Alignment` (across joined IMU gaps: one whose heading the
+        data determine, or one over the stretch after the last of them, :meth:`_solve_checked`)."""
+        if self.missing():
+            return False
+        if self._needs_heading_check():
+            try:
+                self._solve_checked(None)
+            except AlignmentError:
+                return False
+        return True
+
+    def _needs_heading_check(self) -> bool:
+        return (bool(self.joined_gaps) and not self._has_heading_source() and len(self._imu) > 1
+                and self._joined_steps(np.array([s[0] for s in self._imu])).size > 0)
+
+    def _solve_checked(self, t_out: float | None, end_of_data: bool = False) -> Alignment:
+        """:meth:`_solve` across joined IMU gaps, checked: when they leave the gyrocompassed heading undetermined
+        (:meth:`_heading_undetermined`), the alignment starts again after them as it did before gaps were joined
+        (:meth:`_fall_back`: over the stretch after the last, or the longest at the end of the data), and is refused
+        only when that stretch is too short as well. A heading found undetermined is not fitted again before
+        :meth:`_recheck_pending` says so."""
+        if not self._needs_heading_check():
+            al = self._solve(t_out, end_of_data)
+            if self._not_joined is not None:
+                al.info["imu_gaps_not_joined"] = self._not_joined
+            return al
+        if self._recheck_pending(end_of_data):
+            why = self._undetermined[1]
+        else:
+            al = self._solve(t_out, end_of_data)
+            why = self._heading_undetermined(al, t_out, end_of_data)
+            if why is None:
+                self._undetermined, self._n_undetermined = None, 0
+                return al
+            # each fit across hundreds of gaps costs seconds: wait twice as long after each refusal
+            wait_s = HEADING_RECHECK_S * 2.0 ** min(self._n_undetermined, 20)
+            self._undetermined, self._n_undetermined = (self._imu[-1][0] + wait_s, why), self._n_undetermined + 1
+        short = self._fall_back(end_of_data)
+        if short:
+            raise AlignmentError(f"cannot align from the sensors: {why}; started again after the gaps, {short}")
+        self._not_joined = why
+        return self._solve_checked(t_out, end_of_data)
+
+    def _heading_undetermined(self, al: Alignment, t_out: float | None, end_of_data: bool) -> str | None:
+        """Why the joined IMU gaps leave the heading of ``al`` undetermined, or None: a fit started turned by each of
+        :data:`HEADING_CHECK_TURNS_RAD` that ends more than 3 sigmas from it with a cost less than
+        :data:`HEADING_CHECK_CHI2` higher is an equally good heading (docs/decisions/alignment.md)."""
+        for turn in HEADING_CHECK_TURNS_RAD:
+            other = self._solve(t_out, end_of_data, yaw_start=turn)
+            apart = abs(float(np.angle(np.exp(1j * (other.euler[2] - al.euler[2])))))
+            worse = other.info["fit_cost"] - al.info["fit_cost"]
+            if apart > 3.0 * al.info["heading_sigma_rad"] and worse < HEADING_CHECK_CHI2:
+                n = len(self._joined_steps(np.array([s[0] for s in self._imu])))
+                gaps = f"the {n} IMU gaps joined" if n > 1 else "the IMU gap joined"
+                return (f"{gaps} in the alignment ({self._joined_note()}) leave{'s' * (n == 1)} its gyrocompassed "
+                        f"heading undetermined: a fit started {np.degrees(turn):+.0f} deg away ends at "
+                        f"{np.degrees(other.euler[2]):.1f} deg against {np.degrees(al.euler[2]):.1f} deg (claimed "
+                        f"sigma {np.degrees(al.info['heading_sigma_rad']):.2g} deg) with a cost {worse:+.2f} from "
+                        "it; supply a heading source (add_heading, or AlignOptions.initial_heading_rad: "
+                        "--initial-heading)")
+        return None
+
+    def _recheck_pending(self, end_of_data: bool = False) -> bool:
+        """True while a heading the joined IMU gaps left undetermined waits (live) before it is fitted again:
+        :data:`HEADING_RECHECK_S` of IMU time after the first refusal, twice as long after each further one."""
+        return (not end_of_data and self._undetermined is not None and not self._has_heading_source()
+                and bool(self._imu) and self._imu[-1][0] < self._undetermined[0])
+
+    def _after_last_joined_ready(self) -> bool:
+        """True when the data after the last joined IMU gap held are enough to align over on their own (as
+        :meth:`_fall_back` will, not at the end of the data)."""
+        if not self.joined_gaps or not self._imu or self.joined_gaps[-1][1] < self._imu[0][0]:
+            return False
+        t0, t1 = self.joined_gaps[-1]
+        pings = len(self._dvl) - bisect.bisect_right([d[0] for d in self._dvl], t0)
+        return self._imu[-1][0] - t1 >= self._needed_s() and pings >= self.options.min_dvl_pings
+
+    def _fall_back(self, end_of_data: bool = False) -> str:
+        """Start the alignment again after every joined IMU gap of the data held (:meth:`_start_again`), the rule
+        before gaps were joined: it aligns over the stretch after the last (at the end of the data: the longest).
+        Returns what that stretch lacks ("" when it is enough; when it lacks any, the data held stay as they were)."""
+        t = np.array([s[0] for s in self._imu])
+        held = (self._imu, self._dvl, self._depth, list(self.imu_gaps), self._before_gap, self._undetermined)
+        for i in self._joined_steps(t):
+            self._start_again(float(t[i]), float(t[i + 1]))
+        self._undetermined = None
+        missing = self.missing(end_of_data)
+        if missing:
+            self._imu, self._dvl, self._depth, self.imu_gaps, self._before_gap, self._undetermined = held
+            return "; ".join(missing)
+        return ""
+
+    def settle(self, end_of_data: bool = False) -> None:
+        """Decide which data the alignment is over, so that :attr:`t_first` says where it starts: across the joined
+        IMU gaps, or after them when they leave the heading undetermined (:meth:`_solve_checked`; :attr:`ready`
+        decides it live, this at the end of the data).
+
+        Raises:
+            AlignmentError: as :meth:`result`."""
+        if self._needs_heading_check():
+            self._solve_checked(None, end_of_data)
+
+    def _joined_note(self) -> str:
+        """The first joined IMU gaps of the data held, in words."""
+        t = np.array([s[0] for s in self._imu])
+        steps = self._joined_steps(t)
+        return ", ".join(f"{t[i + 1] - t[i]:.3g} s after t = {t[i]:.3f} s" for i in steps[:3]) + \
+            (" ..." if len(steps) > 3 else "")
 
     # --- solution ---------------------------------------------------------------------------------
     def result(self) -> Alignment:
@@ -534,7 +694,7 @@ class Aligner:
         Raises:
             AlignmentError: naming what is missing (IMU time, DVL bottom lock, a heading source).
         """
-        return self._solve(None)
+        return self._solve_checked(None)
 
     def result_at(self, t: float, end_of_data: bool = False) -> Alignment:
         """The aligned state at any stamp t (s) inside the data the aligner holds, e.g. the first IMU sample, so
@@ -546,10 +706,10 @@ class Aligner:
         Raises:
             AlignmentError: as :meth:`result`, or t outside the data held.
         """
-        return self._solve(float(t), end_of_data)
+        return self._solve_checked(float(t), end_of_data)
 
     def _solve(self, t_out: float | None, end_of_data: bool = False, exclude: frozenset = frozenset(),
-               rounds: int = FIT_REJECT_ROUNDS) -> Alignment:
+               rounds: int = FIT_REJECT_ROUNDS, yaw_start: float = 0.0) -> Alignment:
         missing = self.missing(end_of_data)
         if missing:
             raise AlignmentError("cannot align from the sensors: " + "; ".join(missing))
@@ -578,27 +738,63 @@ class Aligner:
         elif not t0 <= t_out <= t_end:
             raise AlignmentError(f"result_at({t_out:.3f}): outside the aligner's data [{t0:.3f}, {t_end:.3f}] s")
 
-        # body attitude C_bt_b0, int C_bt_b0 f dt and int C_bt_b0 dt at every IMU stamp (zero-order hold)
+        # body attitude C_bt_b0, int C_bt_b0 f dt and int C_bt_b0 dt at every IMU stamp (zero-order hold); a joined
+        # gap (imu_gap) is bridged by interpolation, as the estimators bridge it, and its error is fitted below
+        gaps = self._joined_steps(t_imu)
+        f_step, w_step = f_b.copy(), w_b.copy()
+        f_step[gaps], w_step[gaps] = 0.5 * (f_b[gaps] + f_b[gaps + 1]), 0.5 * (w_b[gaps] + w_b[gaps + 1])
         dt = np.diff(t_imu)
-        B = np.concatenate([np.eye(3)[None], prefix_products(so3_exp_batch(w_b[:-1] * dt[:, None]))])
-        F = np.concatenate([np.zeros((1, 3)), np.cumsum(np.einsum("nij,nj->ni", B[:-1], f_b[:-1]) * dt[:, None], 0)])
-        M = np.concatenate([np.zeros((1, 3, 3)), np.cumsum(B[:-1] * dt[:, None, None], 0)])
+        B0 = np.concatenate([np.eye(3)[None], prefix_products(so3_exp_batch(w_step[:-1] * dt[:, None]))])
+        dF0 = np.einsum("nij,nj->ni", B0[:-1], f_step[:-1]) * dt[:, None]
+        dM0 = B0[:-1] * dt[:, None, None]
+        n_gaps = len(gaps)
+        stretch_of = np.searchsorted(gaps, np.arange(len(t_imu)))      # the stretch of each sample (0: before any gap)
+        gap_prior_info, gap_velocity_sigma = _gap_priors(t_imu, f_b, w_b, gaps, B0, cfg.imu)
+
+        def sample_index(t):
+            return np.clip(np.searchsorted(t_imu, np.atleast_1d(t), side="right") - 1, 0, len(t_imu) - 1)
+
+        def rechain(Q):
+            """The chain with each stretch s turned by ``Q[s]`` (n_gaps + 1,3,3; b0, on the left; ``Q[0]`` = I): the
+            fitted error of the bridges before it. A gap's own step belongs to the stretch before it."""
+            nonlocal B, F, M
+            if not n_gaps:
+                B = B0
+                F = np.concatenate([np.zeros((1, 3)), np.cumsum(dF0, 0)])
+                M = np.concatenate([np.zeros((1, 3, 3)), np.cumsum(dM0, 0)])
+                return
+            Q = Q[stretch_of]
+            B = Q @ B0
+            F = np.concatenate([np.zeros((1, 3)), np.cumsum(np.einsum("nij,nj->ni", Q[:-1], dF0), 0)])
+            M = np.concatenate([np.zeros((1, 3, 3)), np.cumsum(Q[:-1] @ dM0, 0)])
 
         def body_at(t):
             """(C_bt_b0, int C f dt, int C dt) at stamps t: the last sample held (zero-order hold)."""
             t = np.atleast_1d(t)
-            k = np.clip(np.searchsorted(t_imu, t, side="right") - 1, 0, len(t_imu) - 1)
+            k = sample_index(t)
             lag = (t - t_imu[k])[:, None]
-            return (B[k] @ so3_exp_batch(w_b[k] * lag), F[k] + np.einsum("nij,nj->ni", B[k], f_b[k]) * lag,
+            return (B[k] @ so3_exp_batch(w_step[k] * lag), F[k] + np.einsum("nij,nj->ni", B[k], f_step[k]) * lag,
                     M[k] + B[k] * lag[:, :, None])
 
-        B_dvl, F_dvl, M_dvl = body_at(t_dvl)
         # IMU velocity in the body frame: the DVL head's minus the lever-arm term omega x l, with the rate at the ping
         # by the estimators' rule (the sample held there is its interval's mean, half a sample late: 0.001 deg)
         w_dvl = np.array([gyro_at(t, self._imu) for t in t_dvl])
         v_b = v_head_b - np.cross(w_dvl, self.geometry.lever_arm_b)
-        v_b0 = np.einsum("nij,nj->ni", B_dvl, v_b)
-        r_b0 = cumulative_trapezoid(v_b0, t_dvl, axis=0, initial=0.0)
+        stretch_dvl = stretch_of[sample_index(t_dvl)]
+
+        def pings_on_chain():
+            """The pings' attitude, integrals and b0 velocity on the current chain, and what the fit takes of them."""
+            nonlocal B_dvl, F_dvl, M_dvl, v_b0, r_b0, beta, M_k
+            B_dvl, F_dvl, M_dvl = body_at(t_dvl)
+            v_b0 = np.einsum("nij,nj->ni", B_dvl, v_b)
+            r_b0 = cumulative_trapezoid(v_b0, t_dvl, axis=0, initial=0.0)[1:]
+            beta = ((F_dvl - F_dvl[0]) - (v_b0 - v_b0[0]))[1:]
+            M_k = (M_dvl - M_dvl[0])[1:]
+
+        B = F = M = B_dvl = F_dvl = M_dvl = v_b0 = r_b0 = beta = M_k = None
+        Q, jumps = np.repeat(np.eye(3)[None], n_gaps + 1, 0), np.zeros((n_gaps, 3))
+        rechain(Q)
+        pings_on_chain()
 
         def nav_rotation(t):          # C_n0_nt = Exp(-omega_ie (t - t0))
             return Rotation.from_rotvec(-np.outer(np.atleast_1d(t) - t0, omega_ie)).as_matrix()
@@ -611,9 +807,6 @@ class Aligner:
             t = np.atleast_1d(t)
             return _rotating_integral(omega_ie, g_n, t - t0) + _gravity_change_integral(
                 gamma, nav_rotation, t0, t_dvl, v_b0 @ C.T, t)
-        beta = ((F_dvl - F_dvl[0]) - (v_b0 - v_b0[0]))[1:]
-        M_k = (M_dvl - M_dvl[0])[1:]
-        r_b0 = r_b0[1:]
         tau = t_dvl[1:] - t_dvl[0]
         C = np.eye(3)
 
@@ -628,6 +821,8 @@ class Aligner:
             # of the first ping is common to every vector and tilts the whole fit
             rot, _ = Rotation.align_vectors(alpha - alpha.mean(0), beta - beta.mean(0))
             C = rot.as_matrix()
+        if yaw_start:     # a start turned about the vertical (_heading_undetermined)
+            C = Rotation.from_rotvec([0.0, 0.0, yaw_start]).as_matrix() @ C
         # Gauss-Newton refinement with the accelerometer bias and the DVL's scale factor and beam biases (seen in
         # turns and speed changes; their priors otherwise, and their uncertainty reaches the heading and tilt),
         # weighted by the DVL noise of each ping (anisotropic: the vertical is better), giving the covariance
@@ -635,6 +830,9 @@ class Aligner:
         cov_dvl_b = self._dvl_velocity_covariance()
         x = np.zeros(10)
         x_sigma, x_prior = self._error_prior()
+        # a joined gap j lies between the first ping and ping n when stretch_a < j <= stretch_n
+        crossed = (np.arange(1, n_gaps + 1)[None, :] > stretch_dvl[0]) & \
+            (np.arange(1, n_gaps + 1)[None, :] <= stretch_dvl[1:, None])
 
         def residuals(C, x, D):
             """Weights W, model y, offset u and residuals of the pings after the first, D's K and B_dvl @ D."""
@@ -646,8 +844,28 @@ class Aligner:
             R = C_B @ cov_dvl_b @ np.swapaxes(C_B, 1, 2) + (sigma_acc ** 2 * tau)[:, None, None] * np.eye(3)
             W = np.linalg.inv(R)
             y = (beta - np.einsum("nij,j->ni", K, x)) @ C.T
-            u = np.linalg.solve(W.sum(0), np.einsum("nij,nj->i", W, alpha - y))
-            return W, y, u, alpha - u - y, K, BD
+            y_all = y + crossed @ jumps if n_gaps else y        # the velocity changes fitted across the gaps
+            u = np.linalg.solve(W.sum(0), np.einsum("nij,nj->i", W, alpha - y_all))
+            return W, y, u, alpha - u - y_all, K, BD
+
+        def gap_columns(C, x, BD):
+            """d res / d [stretch rotations 1.., jumps] (N-1,3,6 n_gaps): stretch s's rotation (b0, left) turns the
+            part of the pings' velocity change made in it."""
+            J = np.zeros((len(t_dvl) - 1, 3, 6 * n_gaps))
+            z_dvl = F_dvl - M_dvl @ x[:3]                         # int C_bt_b0 (f - b_a) dt at the pings
+            v_dvl = v_b0 - np.einsum("nij,j->ni", BD, x[3:])    # the pings less the DVL errors
+            starts = gaps + 1                                    # the first sample of each stretch after the first
+            for s in range(1, n_gaps + 1):
+                z_in = F[starts[s - 1]] - M[starts[s - 1]] @ x[:3]
+                z_out = F[starts[s]] - M[starts[s]] @ x[:3] if s < n_gaps else None
+                upper = np.where((stretch_dvl[1:] == s)[:, None], z_dvl[1:] - v_dvl[1:],
+                                 z_out if z_out is not None else 0.0)
+                lower = z_dvl[0] - v_dvl[0] if stretch_dvl[0] == s else z_in
+                inside = (stretch_dvl[1:] >= s) & (stretch_dvl[0] <= s)
+                part = (upper - lower) @ C.T
+                J[inside, :, 3 * (s - 1):3 * s] = skew(part[inside]) @ C
+                J[crossed[:, s - 1], :, 3 * (n_gaps + s - 1):3 * (n_gaps + s)] = -np.eye(3)
+            return J
 
         for i in range(2 * FIT_ITERATIONS):
             W, y, u, res, K, BD = residuals(C, x, D)
@@ -662,13 +880,28 @@ class Aligner:
             J[:, :, 0:3] = skew(y)                              # d res / d phi (left perturbation, n0)
             J[:, :, 3:6] = -np.eye(3)                           # d res / d u
             J[:, :, 6:16] = C @ K                               # d res / d x
-            H = np.einsum("nki,nkl,nlj->ij", J, W, J)
-            g_vec = np.einsum("nki,nkl,nl->i", J, W, res)
-            H[6:, 6:] += np.diag(x_prior)
-            g_vec[6:] += x_prior * x
+            if n_gaps:
+                J = np.concatenate([J, gap_columns(C, x, BD)], axis=2)
+            if n_gaps:        # hundreds of columns: as matrix products
+                WJ = (W @ J).reshape(-1, J.shape[2])
+                H, g_vec = J.reshape(-1, J.shape[2]).T @ WJ, WJ.T @ res.reshape(-1)
+            else:
+                H = np.einsum("nki,nkl,nlj->ij", J, W, J)
+                g_vec = np.einsum("nki,nkl,nl->i", J, W, res)
+            H[6:16, 6:16] += np.diag(x_prior)
+            g_vec[6:16] += x_prior * x
+            if n_gaps:
+                _add_gap_priors(H, g_vec, Q, jumps, gap_prior_info, gap_velocity_sigma)
             dx = -np.linalg.solve(H, g_vec)
             C = Rotation.from_rotvec(dx[0:3]).as_matrix() @ C
-            x = x + np.where(x_prior < FIXED_PRIOR, dx[6:], 0.0)
+            x = x + np.where(x_prior < FIXED_PRIOR, dx[6:16], 0.0)
+            if n_gaps:
+                Q = np.concatenate([Q[:1], so3_exp_batch(dx[16:16 + 3 * n_gaps].reshape(-1, 3)) @ Q[1:]])
+                jumps = jumps + dx[16 + 3 * n_gaps:].reshape(-1, 3)
+                rechain(Q)
+                pings_on_chain()
+        if n_gaps:
+            BD = B_dvl @ D
         b_acc = x[:3]
         v_b0 = v_b0 - np.einsum("nij,j->ni", BD, x[3:])        # the pings without the fitted DVL errors
         # a ping whose residual is an outlier against the fit's own scale: solve again without it
@@ -676,9 +909,20 @@ class Aligner:
         scale = max(float(np.median(d2)) / 2.366, 1.0)
         outliers = np.flatnonzero(d2 > FIT_REJECT_CHI2 * scale)
         if outliers.size and rounds > 0 and n - outliers.size >= o.min_dvl_pings:
-            return self._solve(t_out, end_of_data, exclude | frozenset(t_dvl[1:][outliers].tolist()), rounds - 1)
+            return self._solve(t_out, end_of_data, exclude | frozenset(t_dvl[1:][outliers].tolist()), rounds - 1,
+                               yaw_start)
         chi2_dof = float(np.einsum("ni,nij,nj->", res, W, res) / max(3 * n - 9, 1))
+        fit_cost = float(np.einsum("ni,nij,nj->", res, W, res) + x_prior[x_prior < FIXED_PRIOR] @ (
+            x[x_prior < FIXED_PRIOR] ** 2) + (_gap_prior_cost(Q, jumps, gap_prior_info, gap_velocity_sigma)
+                                              if n_gaps else 0.0))
         P = np.linalg.inv(H) * max(1.0, chi2_dof)              # what the data say, if worse than the spec
+        stretch_out = int(stretch_of[sample_index(t_out)][0])
+        if n_gaps:    # the attitude at t_out carries the rotations fitted across the gaps before it
+            L = np.zeros((16, len(P)))
+            L[:, :16] = np.eye(16)
+            if stretch_out:
+                L[0:3, 13 + 3 * stretch_out:16 + 3 * stretch_out] = C
+            P = L @ P @ L.T
         cov_phi = P[0:3, 0:3]
         resid_rms = float(np.sqrt(np.mean(res ** 2)))
 
@@ -713,6 +957,8 @@ class Aligner:
         # velocity at t_out: the pings around it, each carried to t_out with the IMU, averaged (one ping is noisy)
         near = np.abs(t_dvl - t_out) <= o.velocity_window_s / 2
         near = near if near.any() else np.abs(t_dvl - t_out) == np.min(np.abs(t_dvl - t_out))
+        if n_gaps and (near & (stretch_dvl == stretch_out)).any():
+            near &= stretch_dvl == stretch_out            # carried to t_out without a gap's fitted turn between
         dF = (F_out[0] - F_dvl[near]) - np.einsum("nij,j->ni", M_out[0] - M_dvl[near], b_acc)
         v_n = E_out @ np.median((v_b0[near] + dF) @ C.T + (G_out - G[near]), axis=0)   # one bad ping cannot move it
         v_n_dvl = np.einsum("nij,nj->ni", nav_rotation(t_dvl), v_b0 @ C.T)
@@ -740,12 +986,12 @@ class Aligner:
             "n_dvl_rejected_fit": len(exclude),
             "lat_rad": lat, "heading_sigma_rad": float(heading_sigma), "tilt_sigma_rad": tilt_sigma,
             "gyrocompass_sigma_rad": gyrocompass_sigma, "gyrocompass_sigma_formula_rad": _rss(terms),
-            "fit_chi2_per_dof": chi2_dof,
+            "fit_chi2_per_dof": chi2_dof, "fit_cost": fit_cost,
             "accel_bias_sigma_mps2": np.sqrt(np.diag(P[6:9, 6:9])).tolist(), "gyrocompass_terms_rad": {k: float(v) for k, v in terms.items()},
             "dvl_scale_factor": x[3:6].tolist(), "dvl_beam_bias_mps": x[6:].tolist(),
             "dvl_error_sigma": np.sqrt(np.diag(P[9:, 9:])).tolist(),
             "heading_sigma_spec_rad": _rss(spec_terms), "sigma_v_spec_mps": sigma_v_spec,
-            "wahba_residual_rms_mps": resid_rms, **pos_info,
+            "wahba_residual_rms_mps": resid_rms, "imu_gaps_joined": n_gaps, **pos_info,
         }
         return Alignment(float(t_out), C_b_n, v_n, p_n, origin_lla, cov_rot, cov_v_n, cov_p_n,
                          b_acc.copy(), np.zeros(3), heading_source, info, x[3:].copy(), cov_joint)
@@ -916,6 +1162,62 @@ def _gravity_change_integral(gamma: np.ndarray, nav_rotation, t0: float, t_ping:
     p_n = cumulative_trapezoid(np.einsum("nij,nj->ni", E, u), s, axis=0, initial=0.0)
     change_n0 = np.einsum("nji,nj->ni", E, p_n @ gamma.T)
     return cumulative_trapezoid(change_n0, s, axis=0, initial=0.0)[np.searchsorted(s, t)]
+
+
+#: Time either side of a joined IMU gap whose rates and specific forces set the gap's prior (:func:`_gap_priors`), s.
+GAP_PRIOR_SPAN_S = 1.0
+
+
+def _gap_priors(t_imu: np.ndarray, f_b: np.ndarray, w_b: np.ndarray, gaps: np.ndarray, B0: np.ndarray,
+                imu) -> tuple[np.ndarray, np.ndarray]:
+    """Priors of the error of the interpolated bridge over each joined IMU gap (steps ``gaps`` of stamps ``t_imu``, s):
+    the information (n,3,3) of its rotation (b0 frame, rad^-2) and the 1-sigma (n,) of its velocity change, m/s.
+
+    Per body axis the rotation's sigma over a gap of ``dT`` is the root sum of squares of: the spread (standard
+    deviation) of the rate over :data:`GAP_PRIOR_SPAN_S` either side times ``dT`` (a loss: the turn the vehicle's
+    own motion can make unseen), the mean rate either side times ``dT`` (a step of the clock: nothing turned, the
+    bridge turned by that), half the change of rate across times ``dT`` and the gyro's random walk. Measured on
+    the A-KIT Trajectory1/3 IMU (300 bridged losses each of 0.4 / 1 / 2 s), the spread term alone gave a NEES per
+    axis of 0.1-1.2 (docs/decisions/alignment.md). The velocity's sigma: the spread of the specific force times
+    ``dT``, half its change across, and the accelerometer's random walk."""
+    info, sigma_v = np.zeros((len(gaps), 3, 3)), np.zeros(len(gaps))
+    for j, g in enumerate(gaps):
+        dT = t_imu[g + 1] - t_imu[g]
+        around = ((t_imu >= t_imu[g] - GAP_PRIOR_SPAN_S) & (t_imu <= t_imu[g]) |
+                  (t_imu >= t_imu[g + 1]) & (t_imu <= t_imu[g + 1] + GAP_PRIOR_SPAN_S))
+        var = ((np.std(w_b[around], 0) * dT) ** 2 + (0.5 * (w_b[g] + w_b[g + 1]) * dT) ** 2
+               + (0.5 * (w_b[g + 1] - w_b[g]) * dT) ** 2 + imu.gyro_noise_density ** 2 * dT)
+        info[j] = B0[g] @ np.diag(1.0 / np.maximum(var, 1e-18)) @ B0[g].T
+        sigma_v[j] = np.sqrt((np.max(np.std(f_b[around], 0)) * dT) ** 2
+                             + (0.5 * np.linalg.norm(f_b[g + 1] - f_b[g]) * dT) ** 2
+                             + imu.accel_noise_density ** 2 * dT + 1e-12)
+    return info, sigma_v
+
+
+def _gap_prior_cost(Q: np.ndarray, jumps: np.ndarray, info: np.ndarray, sigma_v: np.ndarray) -> float:
+    """The joined gaps' prior terms of the fit's cost (:func:`_add_gap_priors`), chi-square."""
+    r = Rotation.from_matrix(Q[1:] @ np.swapaxes(Q[:-1], 1, 2)).as_rotvec()
+    return float(np.einsum("ni,nij,nj->", r, info, r) + np.sum(jumps ** 2 / sigma_v[:, None] ** 2))
+
+
+def _add_gap_priors(H: np.ndarray, g_vec: np.ndarray, Q: np.ndarray, jumps: np.ndarray, info: np.ndarray,
+                    sigma_v: np.ndarray) -> None:
+    """Add the joined gaps' priors (:func:`_gap_priors`) to the normal equations ``H``, ``g_vec``: on the bridge's
+    fitted error ``Log(Q_s Q_{s-1}^T)`` (``Q`` (n+1,3,3) the stretches' rotations, b0, left; their perturbations
+    follow the fit's 16 states) and on the velocity changes ``jumps`` (n,3) m/s that follow them."""
+    n = len(jumps)
+    for j in range(n):
+        s, v = 16 + 3 * j, 16 + 3 * (n + j)
+        across = Q[j + 1] @ Q[j].T
+        r = Rotation.from_matrix(across).as_rotvec()
+        Jr = np.zeros((3, len(g_vec)))
+        Jr[:, s:s + 3] = np.eye(3)
+        if j:
+            Jr[:, s - 3:s] = -across
+        H += Jr.T @ info[j] @ Jr
+        g_vec += Jr.T @ info[j] @ r
+        H[v:v + 3, v:v + 3] += np.eye(3) / sigma_v[j] ** 2
+        g_vec[v:v + 3] += jumps[j] / sigma_v[j] ** 2
 
 
 def _orthonormalise(C: np.ndarray) -> np.ndarray:

@@ -1019,6 +1019,7 @@ class Navigator:
         t_first = next((e[1] for e in events if e[0] == "imu"), None)
         if t_first is not None and end_of_data:
             a.missing(end_of_data=True)     # the longest stretch without an IMU gap
+            a.settle(end_of_data=True)      # across short ones only when the heading is determined over them
         if t_first is not None and a.t_first is not None and a.t_first > t_first:
             warnings.warn(f"navigator: no estimates from t = {t_first:.3f} to {a.t_first:.3f} s: the alignment "
                           f"starts after the IMU gap there, over which the gyros cannot carry its attitude back",
