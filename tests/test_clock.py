@@ -1088,6 +1088,22 @@ def test_a_dvl_late_beside_an_imu_with_a_gap_is_found_at_its_offset(sim_200, gap
     assert est.sigma_s < 0.1
 
 
+def _cut_at_the_gap_at_80_s(model):
+    """Check that the window across an IMU gap at 80-80.3 s is cut there at offsets -10 and -8 s (pings at 70-89 s and
+    72-91 s on the IMU clock: 11 / 9 either side), each side fitted as a part; returns (offset, pings used, stamps)."""
+    out = []
+    for offset in (-10.0, -8.0):
+        use = model.pings(offset)
+        t = model.t + offset
+        across = (t[:, 0] < 80.0) & (t[:, -1] > 80.3)
+        assert across.sum() == 1 and use[across].sum() == model.window
+        parts = model.segments(offset, use)
+        assert parts is not None and np.all(parts[across].any(axis=1))
+        assert np.all(t[across][parts[across][..., 0]] <= 80.0) and np.all(t[across][parts[across][..., 1]] >= 80.3)
+        out.append((offset, use, t))
+    return out
+
+
 def test_only_imu_gaps_the_run_bridges_cut_windows(sim_200):
     """Samples lost for under `IMU_GAP_MIN_S` (0.25 s; here a 0.2 s step at 100 Hz) are integrated over as the stamps
     say; a 0.3 s step is a gap, and the DVL checks' window model (untrimmed) cuts a window of pings spanning it at an
@@ -1099,14 +1115,7 @@ def test_only_imu_gaps_the_run_bridges_cut_windows(sim_200):
     assert gaps.shape == (1, 2) and gaps[0] == pytest.approx([80.0, 80.3], abs=1e-6)
     model = outage_cut_model(imu, sim_200.dvl, sim_200.config)
     assert not model.trim
-    for offset in (-10.0, -8.0):              # pings at 70-89 s and 72-91 s on the IMU clock: 11 / 9 either side
-        use = model.pings(offset)
-        t = model.t + offset
-        across = (t[:, 0] < 80.0) & (t[:, -1] > 80.3)
-        assert across.sum() == 1 and use[across].sum() == model.window
-        parts = model.segments(offset, use)
-        assert parts is not None and np.all(parts[across].any(axis=1))
-        assert np.all(t[across][parts[across][..., 0]] <= 80.0) and np.all(t[across][parts[across][..., 1]] >= 80.3)
+    for offset, use, t in _cut_at_the_gap_at_80_s(model):
         clear = ((t[:, -1] < 80.0) | (t[:, 0] > 80.3)) & (t[:, 0] >= imu.t[0]) & (t[:, -1] <= imu.t[-1])
         assert np.all(use[clear & model.real.all(axis=1)])
     # a mask the DVL checks give (their search over offsets keeps the same windows at each) is cut so too: a ping
@@ -1122,14 +1131,7 @@ def test_a_clock_window_across_an_imu_gap_keeps_its_pings_either_side(sim_200):
     from graphnav.calibration.clock import clock_model
     imu = _imu_without(sim_200.imu, 80.0, 0.3)
     model = clock_model(imu, sim_200.dvl, sim_200.config)
-    for offset in (-10.0, -8.0):                  # pings at 70-89 s and 72-91 s on the IMU clock: 11 / 9 either side
-        use = model.pings(offset)
-        t = model.t + offset
-        across = (t[:, 0] < 80.0) & (t[:, -1] > 80.3)
-        assert across.sum() == 1 and use[across].sum() == model.window
-        parts = model.segments(offset, use)
-        assert parts is not None and np.all(parts[across].any(axis=1))
-        assert np.all(t[across][parts[across][..., 0]] <= 80.0) and np.all(t[across][parts[across][..., 1]] >= 80.3)
+    _cut_at_the_gap_at_80_s(model)
     # at a window's edge: the ping at 80 s alone before the gap is too few for a part, the 19 after it are fitted
     use = model.pings(0.0)
     edge = model.t[:, 0] == 80.0
