@@ -80,6 +80,7 @@ perturbation for the attitude covariance (``C_true = C_est @ Exp(delta)``, delta
 from __future__ import annotations
 
 import bisect
+import copy
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -1220,6 +1221,32 @@ def _add_gap_priors(H: np.ndarray, g_vec: np.ndarray, Q: np.ndarray, jumps: np.n
         g_vec[v:v + 3] += jumps[j] / sigma_v[j] ** 2
 
 
+def _after_joined_gaps(aligner: Aligner, events: list, feed, t_result: float | None) -> Aligner:
+    """A recorded mission's aligner, ``aligner``, ready across joined IMU gaps with a gyrocompassed heading: the
+    aligner fed the ``events`` that follow until the data after the last of those gaps are enough on their own, which
+    then aligns over them as before gaps were joined (:meth:`Aligner._solve_checked`); ``aligner`` itself when the
+    mission ends, or a further IMU gap comes, first, or the state is wanted at ``t_result`` (s) before the last gap.
+    Joined, the heading of simulated navigation-grade missions was up to 10 deg worse than over the stretch after the
+    gap (docs/decisions/alignment.md)."""
+    if not aligner._needs_heading_check() or (t_result is not None and t_result < aligner.joined_gaps[-1][1]):
+        return aligner
+    later = copy.deepcopy(aligner)
+    n_gaps = (len(later.joined_gaps), len(later.imu_gaps))
+    for t, kind, i in events:
+        if feed(later, t, kind, i) and later._after_last_joined_ready():
+            n = len(later._joined_steps(np.array([s[0] for s in later._imu])))
+            note = later._joined_note()
+            if later._fall_back():
+                break
+            later._not_joined = (f"the IMU gap{'s' * (n > 1)} ({note}) not joined: the data after "
+                                 f"{'them' if n > 1 else 'it'} are enough to gyrocompass over, as before gaps were "
+                                 "joined (a heading across joined gaps is no better)")
+            return later
+        if (len(later.joined_gaps), len(later.imu_gaps)) != n_gaps:
+            break
+    return aligner
+
+
 def _orthonormalise(C: np.ndarray) -> np.ndarray:
     u, _, vt = np.linalg.svd(C)
     return u @ vt
@@ -1236,7 +1263,10 @@ def align_mission(mission, options: AlignOptions | None = None, *, use_depth: bo
     ``t_end`` comes) before the aligner is ready. The aligner is told of every IMU gap the estimators bridge
     (:data:`~graphnav.core.mission.IMU_GAP_PERIODS` periods of the rate its stamps show,
     :func:`~graphnav.core.imu_timing.imu_rate_hz`), as the Navigator tells it live (:meth:`Aligner.imu_gap`: its
-    keyframer judges gaps by the period the stream shows, not the configured one).
+    keyframer judges gaps by the period the stream shows, not the configured one). A gyrocompassed heading ready
+    across joined IMU gaps (:data:`GAP_JOINED_S`) is taken over the mission's data after the last of them instead
+    when they are enough on their own, as before gaps were joined (a recorded mission has them; live, waiting for
+    them would leave the time before the gap without estimates).
     """
     aligner = Aligner(mission.config, options)
     rate_hz = imu_rate_hz(mission.imu.t, mission.config.imu_rate_hz)
@@ -1251,19 +1281,25 @@ def align_mission(mission, options: AlignOptions | None = None, *, use_depth: bo
         events += [(t, 3, i) for i, t in enumerate(mission.heading.t)]
     events.sort()
     imu, dvl, depth = mission.imu, mission.dvl, mission.depth
-    for t, kind, i in events:
-        if t_end is not None and t > t_end:
-            break
+
+    def feed(a: Aligner, t: float, kind: int, i: int) -> bool:
+        """Give ``a`` event (t, kind, i); True when it was an IMU sample."""
         if kind == 0:
             if i in gap_before:
-                aligner.imu_gap(imu.t[i - 1], t)
-            aligner.add_imu(t, imu.f_b[i], imu.omega_b[i])
-            if t_end is None and aligner.ready:
-                break
+                a.imu_gap(imu.t[i - 1], t)
+            a.add_imu(t, imu.f_b[i], imu.omega_b[i])
         elif kind == 1:
-            aligner.add_dvl(t, dvl.beams[i], dvl.valid[i])
+            a.add_dvl(t, dvl.beams[i], dvl.valid[i])
         elif kind == 2:
-            aligner.add_depth(t, depth.depth[i])
+            a.add_depth(t, depth.depth[i])
         else:
-            aligner.add_heading(t, mission.heading.yaw[i], mission.heading.sigma[i])
+            a.add_heading(t, mission.heading.yaw[i], mission.heading.sigma[i])
+        return kind == 0
+
+    for k, (t, kind, i) in enumerate(events):
+        if t_end is not None and t > t_end:
+            break
+        if feed(aligner, t, kind, i) and t_end is None and aligner.ready:
+            aligner = _after_joined_gaps(aligner, events[k + 1:], feed, t_result)
+            break
     return aligner.result() if t_result is None else aligner.result_at(t_result)
