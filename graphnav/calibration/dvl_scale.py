@@ -188,6 +188,13 @@ IMU_YAWS_DEG = (90, 180, 270)
 #: +1.0e3, 120 s windows -42 / +42; 60 s windows leave 7-9 of 48 not judged, one of them (MEMS) at the wrong sign,
 #: |q| 3.4. No window as read refused, no wrong turn named alone.
 IMU_YAW_MIN_Q = 30.0
+#: A turn whose fit explains none of the velocity's changes (a straight line per window leaves less) is judged only
+#: where it leaves this many times less of them unexplained than the axes as read (as :data:`DVL_Y_MIN_RATIO`): the
+#: noise variances count the model's own misfit. A-KIT Trajectory13 (a vehicle holding its speed) with 0.4 s of IMU
+#: missing every 7 s and its DVL 30 s late, beyond the search: 1.42 as read, 1.34 turned 90 deg (1.06x, 40.8 noise
+#: variances); a simulated 400 s vehicle holding its speed in 0.042 m/s beam noise, its DVL turned 90 deg: 2.01, 1.03
+#: (1.96x, 1030 noise variances: the DVL's turn).
+IMU_YAW_BLIND_RATIO = 1.25
 #: The DVL's mean horizontal direction within this of body +x says its velocity is in the body frame (an AUV moves
 #: forward: -5.0..+1.9 deg on the ten A-KIT trajectories, -0.4..-0.2 simulated); then a turn that fits better is the
 #: IMU's. A velocity pointing forward once turned back is a DVL turned, which the yaw warning of
@@ -506,7 +513,7 @@ def check_imu_yaw(imu, dvl, config, meta: dict, frame: dict, model=None, offsets
     turn (deg) is returned for :func:`warn_dvl_turned`; one that points forward neither way is a DataError naming
     both instruments. 0 when the velocity fits the IMU as read; None otherwise. A note in ``meta["streams"]["imu"]``
     when the data cannot judge (under two 20 s windows of pings, too little change of velocity, or a turn that fits
-    better but explains none of the changes, leaving more than a straight line per window).
+    better but explains none of the changes and leaves under :data:`IMU_YAW_BLIND_RATIO` times less than as read).
     ``frame["signs"]``: the ``imu_axis_signs`` applied (an A-KIT folder), whose negated x and y fix a 180 deg turn.
     ``model``: the clock model when built already; ``offsets``: s added to its DVL stamps, each fit read at its best
     of them (:func:`imu_yaw_fit`; several where the DVL's clock is not known closer). ``carried``: a velocity
@@ -525,9 +532,7 @@ def check_imu_yaw(imu, dvl, config, meta: dict, frame: dict, model=None, offsets
     models = imu_turned_models(model, imu, dvl, config)
     fits = _best_fits(models, offsets)
     q, yaw, q_next = _yaw_evidence(fits)
-    # a turn that explains none of the velocity's changes (a straight line per window leaves less) fits only less
-    # badly than the axes as read: the DVL off its clock by more than the search reaches, its windows cut at IMU gaps
-    blind = q >= IMU_YAW_MIN_Q and not fits[yaw][0] < 1.0
+    blind = q >= IMU_YAW_MIN_Q and not (fits[yaw][0] < 1.0 or fits[0][0] >= IMU_YAW_BLIND_RATIO * fits[yaw][0])
     undecided = meta.get("imu_axis_signs", {}).get("decided") is False
     or_y = or_dvl_y
     if (q >= IMU_YAW_MIN_Q and not blind) or undecided:
@@ -540,8 +545,9 @@ def check_imu_yaw(imu, dvl, config, meta: dict, frame: dict, model=None, offsets
     if blind:
         add_note(meta, "imu", f"its mounting about z not judged against the DVL: the IMU turned {yaw} deg fits the "
                               f"velocity changes {q:.3g} noise variances better than as read, but explains none of "
-                              f"them ({fits[yaw][0]:.2f} left unexplained, {fits[0][0]:.2f} as read: a straight line "
-                              "per window leaves less; a DVL clock further off than the search reaches?)")
+                              f"them ({fits[yaw][0]:.2f} left unexplained, {fits[0][0]:.2f} as read, "
+                              f"{IMU_YAW_BLIND_RATIO:g}x needed: a straight line per window leaves less; the DVL's "
+                              "clock further off than the offsets searched?)")
         return
     if carried and q >= IMU_YAW_MIN_Q:
         raise _unless_declared_earth(meta, _either_turned(imu, dvl, frame, q, yaw, float("nan"), carried), or_y)
