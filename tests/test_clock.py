@@ -1088,6 +1088,22 @@ def test_a_dvl_late_beside_an_imu_with_a_gap_is_found_at_its_offset(sim_200, gap
     assert est.sigma_s < 0.1
 
 
+@pytest.mark.parametrize("shift", [0.0, -30.0])
+def test_a_dvl_beside_an_imu_losing_0_4_s_every_7_s_is_placed_by_its_data_not_the_gaps(sim_200, shift):
+    """0.4 s of IMU rows missing every 7 s beside 1 Hz pings: over the refinement's +-1 s each gap sweeps over 2-3
+    pings, which left no window a part of 6 pings to fit; the fit scored nothing and stopped at the coarse offset
+    +1 s on every log (A-KIT: +1.475 s on time, -28.525 s 30 s late; here +0.975 and -29.025 s). The reach is halved
+    until two windows keep parts: placed within 0.1 s (the gapless log within 0.03 s), with a sigma (0.1-0.3 s on
+    126 pings, 200 fitted without the gaps) where it was NaN."""
+    since = sim_200.imu.t - sim_200.imu.t[0] - 3.1
+    keep = (since <= 0.0) | (since % 7.0 >= 0.4)
+    imu = dataclasses.replace(sim_200.imu, t=sim_200.imu.t[keep], f_b=sim_200.imu.f_b[keep],
+                              omega_b=sim_200.imu.omega_b[keep])
+    est = estimate_dvl_clock_offset(imu, _shifted(sim_200.dvl, shift), sim_200.config)
+    assert est.offset_s == pytest.approx(shift, abs=0.1), est
+    assert abs(est.offset_s - est.coarse_offset_s) < 0.5 and 0.0 < est.sigma_s < 0.5, est     # NaN: nothing fitted
+
+
 def _cut_at_the_gap_at_80_s(model):
     """Check that the window across an IMU gap at 80-80.3 s is cut there at offsets -10 and -8 s (pings at 70-89 s and
     72-91 s on the IMU clock: 11 / 9 either side), each side fitted as a part; returns (offset, pings used, stamps)."""

@@ -345,22 +345,33 @@ def estimate_dvl_clock_offset(imu, dvl, config=None, *, min_overlap_s: float = M
                         "of overlap puts two of those windows on the IMU span: give the DVL clock's offset by hand "
                         "(dvl_time_offset_s, s added to the DVL stamps) if it is known", dvl.source, field="t")
 
-    # the same pings at every offset the refinement tries: one that left some out would fit the rest better. Two
-    # grid steps each way: a ping entering the span moves the coarse scores by its share (a 60 s simulated log's
-    # best lay 0.7 s from its coarse offset)
-    lo, hi = coarse - 2 * h, coarse + 2 * h
-    use = model.pings_over(lo, hi)
+    reach, use = _refine_reach(model, coarse, h)
 
     def cost(o):
         return model.score(o, use)[1]
-    res = minimize_scalar(cost, bounds=(lo, hi), method="bounded", options={"xatol": 1e-4})
-    x = float(res.x)
+    x = coarse if reach == 0.0 else float(minimize_scalar(cost, bounds=(coarse - reach, coarse + reach),
+                                                          method="bounded", options={"xatol": 1e-4}).x)
     explained, sse, _ = model.score(x, use)
     pings = int(use.sum())
     rms = float(np.sqrt(sse / max(3 * pings, 1)))
     overlap = float(min(ints.t[-1], t_dvl[-1] + x) - max(ints.t[0], t_dvl[0] + x))
     return ClockOffset(x, _offset_sigma(model, x, use), max(explained, best), max(second, 0.0), coarse, rms, overlap,
                        pings, lead_sigmas=_lead_over(model, x, rival, h))
+
+
+def _refine_reach(model, coarse: float, h: float) -> tuple[float, np.ndarray]:
+    """``(reach, use)``: how far (s) either way of the coarse offset ``coarse`` (grid step ``h``, s) the clock fit of
+    ``model`` refines it, and the pings it fits there, the same at every offset it tries (``model.pings_over``): one
+    that left some out would fit the rest better. Two grid steps each way: a ping entering the span moves the coarse
+    scores by its share (a 60 s simulated log's best lay 0.7 s from its coarse offset). Where the IMU's gaps sweep
+    over so many pings on that reach that no two windows keep a part of 6 pings (0.4 s of IMU rows missing every 7 s
+    beside 1 Hz pings: the fit had nothing to score and stopped at the reach's end, +1 s, on every log), the reach is
+    halved until two do, down to a quarter step; else the coarse offset stands (reach 0)."""
+    for reach in (2 * h, h, h / 2, h / 4):
+        use = model.pings_over(coarse - reach, coarse + reach)
+        if np.count_nonzero(use.any(axis=1)) >= 2:
+            return reach, use
+    return 0.0, model.pings(coarse)
 
 
 def _imu_gaps_starve(model, t_dvl: np.ndarray, min_overlap_s: float, period: float, source: str,

@@ -188,6 +188,13 @@ IMU_YAWS_DEG = (90, 180, 270)
 #: +1.0e3, 120 s windows -42 / +42; 60 s windows leave 7-9 of 48 not judged, one of them (MEMS) at the wrong sign,
 #: |q| 3.4. No window as read refused, no wrong turn named alone.
 IMU_YAW_MIN_Q = 30.0
+#: A turn whose fit explains none of the velocity's changes (a straight line per window leaves less) is judged only
+#: where it leaves this many times less of them unexplained than the axes as read (as :data:`DVL_Y_MIN_RATIO`): the
+#: noise variances count the model's own misfit. A-KIT Trajectory13 (a vehicle holding its speed) with 0.4 s of IMU
+#: missing every 7 s and its DVL 30 s late, beyond the search: 1.42 as read, 1.34 turned 90 deg (1.06x, 40.8 noise
+#: variances); a simulated 400 s vehicle holding its speed in 0.042 m/s beam noise, its DVL turned 90 deg: 2.01, 1.03
+#: (1.96x, 1030 noise variances: the DVL's turn).
+IMU_YAW_BLIND_RATIO = 1.25
 #: The DVL's mean horizontal direction within this of body +x says its velocity is in the body frame (an AUV moves
 #: forward: -5.0..+1.9 deg on the ten A-KIT trajectories, -0.4..-0.2 simulated); then a turn that fits better is the
 #: IMU's. A velocity pointing forward once turned back is a DVL turned, which the yaw warning of
@@ -235,7 +242,11 @@ def imu_yaw_fit(models: dict, offsets=(0.0,)) -> tuple[float, int, float]:
     turn of 180 deg half a sway period late fits a steady vehicle's velocity changes as well as the axes as read on
     time).
     ``q_next``: the same of the next best turn against the best."""
-    fits = _best_fits(models, offsets)
+    return _yaw_evidence(_best_fits(models, offsets))
+
+
+def _yaw_evidence(fits: dict) -> tuple[float, int, float]:
+    """:func:`imu_yaw_fit`'s ``(q, yaw, q_next)`` from the fits (:func:`_best_fits`) of its models."""
     yaw, nxt = sorted(IMU_YAWS_DEG, key=lambda y: fits[y][0])[:2]
     return _evidence(fits[0], fits[yaw]), yaw, _evidence(fits[nxt], fits[yaw])
 
@@ -501,7 +512,8 @@ def check_imu_yaw(imu, dvl, config, meta: dict, frame: dict, model=None, offsets
     mounted yawed, which gravity cannot see. A velocity that points forward only turned back is a DVL turned: its
     turn (deg) is returned for :func:`warn_dvl_turned`; one that points forward neither way is a DataError naming
     both instruments. 0 when the velocity fits the IMU as read; None otherwise. A note in ``meta["streams"]["imu"]``
-    when the data cannot judge (under two 20 s windows of pings, or too little change of velocity).
+    when the data cannot judge (under two 20 s windows of pings, too little change of velocity, or a turn that fits
+    better but explains none of the changes and leaves under :data:`IMU_YAW_BLIND_RATIO` times less than as read).
     ``frame["signs"]``: the ``imu_axis_signs`` applied (an A-KIT folder), whose negated x and y fix a 180 deg turn.
     ``model``: the clock model when built already; ``offsets``: s added to its DVL stamps, each fit read at its best
     of them (:func:`imu_yaw_fit`; several where the DVL's clock is not known closer). ``carried``: a velocity
@@ -518,16 +530,25 @@ def check_imu_yaw(imu, dvl, config, meta: dict, frame: dict, model=None, offsets
                               "seen then only against a reference attitude")
         return
     models = imu_turned_models(model, imu, dvl, config)
-    q, yaw, q_next = imu_yaw_fit(models, offsets)
+    fits = _best_fits(models, offsets)
+    q, yaw, q_next = _yaw_evidence(fits)
+    blind = q >= IMU_YAW_MIN_Q and not (fits[yaw][0] < 1.0 or fits[0][0] >= IMU_YAW_BLIND_RATIO * fits[yaw][0])
     undecided = meta.get("imu_axis_signs", {}).get("decided") is False
     or_y = or_dvl_y
-    if q >= IMU_YAW_MIN_Q or undecided:
+    if (q >= IMU_YAW_MIN_Q and not blind) or undecided:
         # a y negated on both sensors fits a vehicle that turns more than it speeds up turned 180 deg
         # each fit at its own best offset over the whole search: the one offset the velocity's scale fit chose for
         # the IMU as read is where its wrong y fits best (20 s off on a level vehicle at 1.5 m/s), favouring the turn
         wide = offsets if carried else np.union1d(offsets, SCALE_OFFSETS_S)
         or_y = check_imu_y(imu, config, meta, frame, judge_imu_y(models, imu, dvl, config, yaw, wide),
                            undecided) + or_dvl_y
+    if blind:
+        add_note(meta, "imu", f"its mounting about z not judged against the DVL: the IMU turned {yaw} deg fits the "
+                              f"velocity changes {q:.3g} noise variances better than as read, but explains none of "
+                              f"them ({fits[yaw][0]:.2f} left unexplained, {fits[0][0]:.2f} as read, "
+                              f"{IMU_YAW_BLIND_RATIO:g}x needed: a straight line per window leaves less; the DVL's "
+                              "clock further off than the offsets searched?)")
+        return
     if carried and q >= IMU_YAW_MIN_Q:
         raise _unless_declared_earth(meta, _either_turned(imu, dvl, frame, q, yaw, float("nan"), carried), or_y)
     course = _course(dvl, config) if q >= IMU_YAW_MIN_Q else 0.0
