@@ -367,3 +367,23 @@ def test_the_imu_alone_stepping_days_back_is_named_as_on_its_own_clock_not_as_a_
     text = str(err.value)
     assert "100 of 14100 imu samples are stamped more than 86400 s behind the other streams' (by 172800 s" in text
     assert "the imu stamps are not on the clock the other streams share" in text and "split" not in text, text
+
+
+def test_a_late_ping_stamped_before_a_step_of_every_streams_clock_does_not_make_it_the_imu_alone(records):
+    """Every stream stepped 2 days back at 140 s, a DVL ping stamped 0.05 s after the last stamp before the step
+    (measured before it) arriving behind 10 IMU samples on the new clock, the other streams silent for 2 s: taken for
+    the DVL going on on the old clock,
+    the error named the IMU as off the clock the others share ("correct its stamps"). A ping within
+    CLOCK_JUMP_LATE_S of the jump is no evidence of that: the step of every stream is named, to split at."""
+    config, recs = records
+    # the depth and DVL silent for the 2 s after the step, so that nothing but the IMU shows the new clock at first
+    quiet = [r for r in recs if r["type"] == "imu" or not T_STEP <= r["t"] < T_STEP + 2.0]
+    stepped = _stepped(quiet, -2 * 86400.0)
+    after = [i for i, r in enumerate(stepped) if r["type"] == "imu" and r["t"] < 0.0][9]
+    ping = next(r for r in recs if r["type"] == "dvl" and r["t"] >= T_STEP - 1.0)
+    stepped.insert(after + 1, dict(ping, t=T_STEP + 0.04))
+    with pytest.raises(DataError) as err:
+        _run(config, stepped)
+    text = str(err.value)
+    assert "the clock jumped 172800 s back" in text and "split the stream there" in text, text
+

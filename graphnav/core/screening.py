@@ -77,6 +77,10 @@ MAX_STAMP_GAP_S = 86400.0
 #: had its clock stepped (one corrupted stamp is one sample): every sample after it would be refused, and the stream
 #: stops there naming the jump.
 CLOCK_JUMP_CONFIRM_S = 1.0
+#: A sample of another stream stamped on the old clock within this of the last stamp before a clock jump, s, may have
+#: been measured before the step and arrived late (a DVL ping behind the IMU); only one beyond it shows that stream
+#: going on on the old clock (:attr:`StreamScreen.imu_alone`).
+CLOCK_JUMP_LATE_S = 0.25
 #: A stream with more than this fraction of its samples refused ends the run with a DataError.
 MAX_REFUSED_FRACTION = 0.5
 #: An IMU file with more than this share of its rows a logger's all-zero filler (:data:`IMU_FILLER`) ends the run with a
@@ -2081,7 +2085,7 @@ class StreamScreen:
         if self._jump_open and t > self.clock_jump[1]:
             if stream == "imu":
                 self._jump_open = False     # the IMU went on past the jump on the old clock: no step
-            else:
+            elif t > self.clock_jump[1] + CLOCK_JUMP_LATE_S:
                 self._others_on = True
         self._newest = max(self._newest, t)
         self.oldest = min(self.oldest, t)
