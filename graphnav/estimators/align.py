@@ -54,9 +54,10 @@ Expected accuracy (1-sigma; ``L`` latitude, ``Omega`` Earth rate, ``g`` gravity,
 
 IMU gaps of 0.2-2.5 s (:data:`GAP_JOINED_S`) are joined: each stretch after one is turned by a fitted rotation (b0,
 on the left) and its velocity change offset, with priors from the rates and specific forces around the gap
-(:func:`_gap_priors`); a gyrocompassed heading is then checked from starts turned 90 deg either way and refused when
-they fit as well elsewhere (:meth:`Aligner._solve_checked`). Levelling with a given heading or a heading source
-joins them as well.
+(:func:`_gap_priors`); a gyrocompassed heading is then checked from starts turned 90 deg either way and, when they
+fit as well elsewhere, the alignment starts again after the gaps as it did before gaps were joined, refused only when
+that stretch is short too (:meth:`Aligner._solve_checked`); :func:`align_mission` also takes the recorded stretch
+after the last gap once it is long enough on its own. Levelling with a given heading or a heading source joins them.
 
 Robustness: a single bad sample must not move the alignment. The aligner refuses what the screening of
 :mod:`graphnav.core.screening` refuses (an IMU value beyond the instrument's full scale; a ping beyond the
@@ -436,10 +437,11 @@ class Aligner:
         A gap of at most :data:`GAP_CARRIED_S` is held over as any other step. One of at most :data:`GAP_JOINED_S`
         is joined: the alignment keeps the data either side, bridges the gap by interpolation and fits the bridge's
         error (its turn, with a prior from the rates around the gap that also covers a clock step, and its velocity
-        change; :func:`_gap_priors`); a gyrocompassed heading that such gaps leave undetermined is refused
-        (:meth:`_solve_checked`). Over a longer gap the gyros cannot carry the attitude (a bridge of 5 s at
-        0.014 rad/s, straight through a roll the vehicle was not making, tilted the rest 4 deg: 0.7 m/s^2 of gravity
-        into the levelling), so the alignment starts again after it. The data before it are kept while they are the
+        change; :func:`_gap_priors`); a gyrocompassed heading that such gaps leave undetermined falls back to
+        starting again after them, refused only when that is short too (:meth:`_solve_checked`). Over a longer gap
+        the gyros cannot carry the attitude (a bridge of 5 s at 0.014 rad/s, straight through a roll the vehicle
+        was not making, tilted the rest 4 deg: 0.7 m/s^2 of gravity into the levelling), so the alignment starts
+        again after it. The data before it are kept while they are the
         longest stretch without such a gap: when the data end (:meth:`missing`, ``end_of_data``) the alignment is
         over the longest stretch (:attr:`t_first`)."""
         if t1 - t0 <= GAP_CARRIED_S:
