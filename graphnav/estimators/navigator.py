@@ -612,7 +612,7 @@ class Navigator:
         if self._screen.imu_alone:
             # an IMU stamped on its own clock from the start (its boot) is refused until it comes on the shared one,
             # and named at the end if it never does; one that went on the shared clock and left it alone is named now
-            imu_kept = self.received.get("imu", 0) - self.samples_refused.get("imu", 0) - (stream == "imu")
+            imu_kept = self._kept(stream).get("imu", 0)
             if self.backend is None and imu_kept <= CLOCK_JUMP_CONFIRM_S * self.config.imu_rate_hz:
                 return
             raise DataError(f"navigator: {self._screen.clock_jump_text(self.received)}", "imu", field="t")
@@ -623,6 +623,10 @@ class Navigator:
         raise DataError(f"navigator: {self._screen.clock_jump_text(self.received)}", self._screen.clock_jump[0],
                         field="t")
 
+    def _kept(self, refusing: str) -> dict[str, int]:
+        """Samples received and not refused, per stream, the one of ``refusing`` being refused now counted out."""
+        return {k: n - self.samples_refused.get(k, 0) - (k == refusing) for k, n in self.received.items()}
+
     def _start_over_on_new_clock(self, refusing: str) -> None:
         """The clock stepped days ahead or back before the estimator started, after at most a second of samples (a
         stream whose first stamps are bad, 0 then Unix time, or Unix time then seconds since boot;
@@ -631,8 +635,7 @@ class Navigator:
         counted, and the Navigator starts over on the new clock, its counts kept (the samples that showed the step
         were refused already; ``refusing``: the stream of the one being refused)."""
         stream, before, after = self._screen.clock_jump
-        kept = {k: n - self.samples_refused.get(k, 0) - (k == refusing) for k, n in self.received.items()}
-        kept = {k: n for k, n in kept.items() if n > 0}
+        kept = {k: n for k, n in self._kept(refusing).items() if n > 0}
         jumped = ", ".join(f"{n} {k}" for k, n in self._screen.jumped.items())
         counts = self.received, self.samples_refused, self.refused, self.notes, self.doubted
         config, backend, kwargs = self._init_args
