@@ -39,7 +39,9 @@ then equals RDI's bottom-track beam velocity as recorded, and a convex head has 
   bytes before the first ensemble (a logger that started mid-ensemble or wrote a preamble), bytes between two whole
   ensembles (a CR LF or time tag a logger wrote, a header written twice; both ensembles are read), bytes after the
   last one and a second recording joined behind the first without a cut (its numbers start again: warned and
-  read on where its clock runs on, refused where it runs back or the frame of its velocities differs) and an
+  read on where its clock runs on by less than :data:`JOIN_SPLIT_S`, an hour; refused where it runs on longer,
+  another deployment whose gap no track may bridge, naming each recording and the byte to cut at; refused where it
+  runs back or the frame of its velocities differs) and an
   ensemble written again byte for byte anywhere after itself (a logger's retry, a file appended to itself: the
   same ping twice, which dolfyn cannot read or reads as time running back); an ensemble cut short by the next one
   whose bytes are those of an ensemble read whole (or of the one the file ends in) is such a copy too: the cut end
@@ -50,9 +52,11 @@ then equals RDI's bottom-track beam velocity as recorded, and a convex head has 
   counted; ensembles that share a time (a clock of 1 s resolution on an instrument pinging faster) are ordered by
   their numbers and keep that time (a mission's DVL stream, :func:`read_pd0`, spreads them within the clock's
   tick: :func:`spread_shared_times`, warned and counted as doubted; a clock that stood still for several pings on
-  a clock that otherwise gives each ping its own time, or more than :data:`FROZEN_CLOCK_PINGS` on any clock, has
-  them spread up to the jump at the ping period at most, dead-reckoned at it after the clock's last time, and put
-  after the pause between bursts it stood across, said so; a DVL file dead-reckoned alone is spread alike); a file
+  a clock that otherwise gives each ping its own time or more than its other ticks hold on a clock slower than the
+  pings, or more than :data:`FROZEN_CLOCK_PINGS` on any clock, has them spread up to the jump at the ping period at
+  most, dead-reckoned at it after the clock's last time, and put after the pause between bursts it stood across
+  where the bursts' size or interval tells where (said where it cannot), said so; a DVL file dead-reckoned alone is
+  spread alike); a file
   whose clock and numbers disagree (a clock set back mid-file, two different ensembles with one time and one number,
   two recordings overlapping in time) is refused naming the ensembles (:func:`_time_order` says why), and so is one
   of fewer than :data:`MIN_ENSEMBLES` ensembles, which dolfyn cannot read.
@@ -796,6 +800,40 @@ def _warn_joins(scan: Pd0Scan, source: str) -> None:
                   f"{b})", RuntimeWarning, stacklevel=4)
 
 
+#: A second recording that begins more than this long (s) after the first ends is another deployment, not a pause of
+#: one: an hour without the instrument is longer than an AUV's surfacing or a restart of the DVL within a dive, and is
+#: a vehicle recovered and put in again (a battery change, another day). Nothing in the file says where the vehicle
+#: went between the two, so no track may join them: the file is refused, naming each recording and where to cut it.
+JOIN_SPLIT_S = 3600.0
+
+
+def _refuse_far_joins(raw: bytes, scan: Pd0Scan, source: str) -> None:
+    """Refuse a file in which a second recording begins more than :data:`JOIN_SPLIT_S` after the first ends
+    (:attr:`Pd0Scan.joins`): read as one log, the gap of hours or days between them would be bridged (a DVL dead
+    reckoning carried the last velocity over 3 days: 366 km "travelled"). The message names each recording (its
+    ensemble numbers, first and last time, bytes) and the bytes to cut the file at, so that each is navigated on its
+    own; joins of less (an instrument restarted within seconds) are read on, warned (:func:`_warn_joins`)."""
+    far = [j for j in scan.joins if j[4] > JOIN_SPLIT_S]
+    if not far:
+        return
+    firsts = [0] + [next(i for i, (a, _) in enumerate(scan.spans) if a == j[3]) for j in far] + [len(scan.spans)]
+    said = []
+    for k, (i, j) in enumerate(zip(firsts, firsts[1:]), 1):
+        lo, hi = min(a for a, _ in scan.spans[i:j]), max(b for _, b in scan.spans[i:j])
+        said.append(f"recording {k}: ensembles {scan.numbers[i]}-{scan.numbers[j - 1]}, from "
+                    f"{_utc(_leader(raw, scan.spans[i][0])[1])} to {_utc(_leader(raw, scan.spans[j - 1][0])[1])} UTC "
+                    f"(bytes {lo}-{hi - 1})")
+    cuts = " and ".join(str(j[3]) for j in far)
+    name = Path(source).name
+    raise DataError(f"{len(far) + 1} recordings joined in one file without a cut, "
+                    + "; ".join(f"ensemble {m} (byte {b}) starting the ensemble numbers again {_gap_words(gap)} after "
+                                f"ensemble {n} (byte {a})" for n, a, m, b, gap in far)
+                    + f": {'; '.join(said)}. A gap longer than {_gap_words(JOIN_SPLIT_S)} between two recordings is "
+                    "another deployment, not a pause to bridge (nothing says where the vehicle went between them); "
+                    f"navigate each on its own: cut the file at byte {cuts} (e.g. head -c {far[0][3]} {name} > "
+                    f"first.pd0; tail -c +{far[0][3] + 1} {name} > second.pd0)", source, field="time")
+
+
 def _gap_words(gap_s: float) -> str:
     """A gap in s as a user reads it: seconds, minutes, hours or days."""
     for unit, size in (("day(s)", 86400.0), ("h", 3600.0), ("min", 60.0)):
@@ -930,6 +968,8 @@ def _dataset(path: Path, scan: Pd0Scan):
     if scan.stray:
         _warn_stray(scan, source)
     if scan.joins:
+        if not change:           # two instruments' recordings are refused for that, below
+            _refuse_far_joins(path.read_bytes(), scan, source)
         _warn_joins(scan, source)
     if scan.cut_short:
         _warn_cut_short(scan, source)
@@ -1229,7 +1269,8 @@ def _after_pauses(t: np.ndarray, spread: np.ndarray, groups: tuple, stalled: np.
     """``spread`` (s) with the pings of a clock that stood still across the pause between two bursts put after it:
     on an instrument pinging in bursts of ``n`` (the pings between the pauses where the clock ran, the same number
     each time), the stall's pings from the next burst on are taken at the ``period`` (s) up to the time the clock
-    jumped to, instead of on from its stalled time (which put the next burst's first ping a pause early). ``groups``
+    jumped to, instead of on from its stalled time (which put the next burst's first ping a pause early); bursts of
+    irregular size that start at a fixed interval are placed by it (:func:`_after_pause_by_cycle`). ``groups``
     are :func:`_time_groups`' runs, ``stalled`` which stood still (:func:`_stalled_groups`)."""
     starts, sizes, room = groups
     if not stalled.any() or not np.isfinite(period):
@@ -1240,7 +1281,7 @@ def _after_pauses(t: np.ndarray, spread: np.ndarray, groups: tuple, stalled: np.
         return spread
     burst = int(np.min(np.diff(pauses)))
     if burst < 2 or np.any(np.diff(pauses) % burst):
-        return spread
+        return _after_pause_by_cycle(t, spread, groups, stalled, period, pauses)
     pause_s = float(np.median(room[paused]))       # from a burst's last ping to the next one's first
     spread = spread.copy()
     for g in np.flatnonzero(stalled & (room > (sizes + PAUSE_PERIODS) * period)):
@@ -1258,6 +1299,48 @@ def _after_pauses(t: np.ndarray, spread: np.ndarray, groups: tuple, stalled: np.
             else:                                        # never ran on: on from its time over the pauses behind each
                 behind = np.sum(ends[None, :] < after[:, None], axis=1)
                 spread[after] = t[first] + (after - first) * period + behind * (pause_s - period)
+    return spread
+
+
+def _burst_cycle(t: np.ndarray, pauses: np.ndarray, period: float) -> float:
+    """The time (s) from one burst's first ping to the next one's of pings in bursts of irregular size (``pauses``:
+    the index of each burst's last ping, its clock running; ``t`` s) when the bursts start at a fixed interval (each
+    step between the first pings of bursts a whole number of the shortest, within half a ``period`` s); NaN when
+    fewer than three bursts start after a pause or they start irregularly too."""
+    firsts = t[pauses + 1]
+    steps = np.diff(firsts)
+    if len(steps) < 2:
+        return float("nan")
+    cycle = float(np.min(steps))
+    whole = np.round(steps / cycle)
+    if cycle <= 0 or np.any(np.abs(steps - whole * cycle) > 0.5 * period):
+        return float("nan")
+    return float(np.sum(steps) / np.sum(whole))
+
+
+def _after_pause_by_cycle(t: np.ndarray, spread: np.ndarray, groups: tuple, stalled: np.ndarray, period: float,
+                          pauses: np.ndarray) -> np.ndarray:
+    """:func:`_after_pauses` for bursts of irregular size that start at a fixed interval (:func:`_burst_cycle`): the
+    pings of a stall that the clock jumped out of inside a burst, from that burst's start (the last burst start
+    before the jump, a whole number of intervals after one the clock gave) up to the jump, are that burst's first
+    pings, at the ``period``; the others stay on from the stalled time. Only a stall across one pause is placed so:
+    how many pings of the bursts between two pauses it stood across cannot be told (said by :func:`_stall_note`)."""
+    starts, sizes, room = groups
+    cycle = _burst_cycle(t, pauses, period)
+    if not np.isfinite(cycle):
+        return spread
+    spread = spread.copy()
+    for g in np.flatnonzero(stalled & np.isfinite(room) & (room > (sizes + PAUSE_PERIODS) * period)):
+        first, end = starts[g], starts[g] + sizes[g]
+        known = t[pauses + 1][pauses + 1 <= first]
+        if not len(known):
+            continue
+        jump = t[first] + room[g]
+        start = known[-1] + cycle * np.floor((jump - known[-1]) / cycle + 1e-9)     # of the burst the jump is in
+        after = int(np.round((jump - start) / period))
+        if start <= t[first] + (sizes[g] - after - 1) * period or not 0 < after < sizes[g]:
+            continue                         # no pause between the stalled time and the jump, or none of it after
+        spread[end - after:end] = start + period * np.arange(after)
     return spread
 
 
@@ -1309,15 +1392,26 @@ def _stalled_groups(sizes: np.ndarray, room: np.ndarray, resolution: float) -> t
     resolution if ``(k - 1)`` periods fit in it: more, by :data:`STALL_MARGIN_PERIODS`, and the clock stood still
     while the instrument pinged on. On any clock a run of more than :data:`FROZEN_CLOCK_PINGS` pings stood still; on
     a clock that then measures no period it is the time its stalls end in a tick per ping (the clock stood still,
-    then jumped on to the right time), else the time per ping of its other runs. None else on a clock slower than
-    the pings (most runs shared), whose shared times are its ticks."""
+    then jumped on to the right time), else the time per ping of its other runs. A run of two or more that a tick
+    cannot hold ((k - 1) periods reach the resolution: 0.5 Hz pings on a clock of whole seconds, one of which repeats
+    a time) after which the clock ran on as long as its pings take at the period (within
+    :data:`STALL_MARGIN_PERIODS`) stood still too: the clock jumped on to the right time. On a clock slower than the
+    pings (most runs shared) that ticks on one tick at a time, the pings its ticks hold measure the period
+    (:func:`_tick_period`: 4 Hz pings on a clock of whole seconds, 4 a tick) and a run of more than a tick holds
+    stood still as above; on one that steps further (pings in bursts) the shared times are its ticks."""
     stalled, period = np.zeros(len(sizes), bool), float("nan")
     if _own_times(sizes):
         steps = room[:-1][(sizes == 1)[:-1]]
         period = float(np.median(steps))
         if resolution >= WHOLE_SECOND_TICK_S:       # its steps are the period rounded to its tick: their mean is it
             period = float(np.mean(steps[steps <= period + resolution]))         # (gaps left out)
-        stalled = (sizes - 1 - STALL_MARGIN_PERIODS) * period > resolution
+        stalled = ((sizes - 1 - STALL_MARGIN_PERIODS) * period > resolution) | (
+            (sizes > 1) & ((sizes - 1) * period >= resolution - 1e-6) & np.isfinite(room)
+            & (room >= (sizes - STALL_MARGIN_PERIODS) * period))
+    else:
+        period = _tick_period(sizes, room, resolution)
+        if np.isfinite(period):
+            stalled = (sizes - 1 - STALL_MARGIN_PERIODS) * period > resolution
     frozen = sizes > FROZEN_CLOCK_PINGS
     if not frozen.any() or np.isfinite(period):
         return stalled | frozen, period
@@ -1325,6 +1419,23 @@ def _stalled_groups(sizes: np.ndarray, room: np.ndarray, resolution: float) -> t
         if runs.any():
             return stalled | frozen, float(room[runs].sum() / sizes[runs].sum())
     return stalled, period
+
+
+#: Runs of pings between a clock's first and last that it ticked once after, fewest to measure a ping period by.
+TICKED_RUNS = 3
+
+
+def _tick_period(sizes: np.ndarray, room: np.ndarray, resolution: float) -> float:
+    """The ping period (s) of a clock of whole seconds (or 2 s) slower than the pings that ticks on one tick at a time
+    (its usual step, the median of ``room``, is its ``resolution``): the time per ping of the runs of one time
+    (:func:`_time_groups`' ``sizes``, ``room`` s) after which it ticked once, but the first and last (which may hold
+    part of a tick); NaN with fewer than :data:`TICKED_RUNS` such runs, or on a clock whose usual step is longer
+    (pings in bursts: how fast they came within a burst its times cannot tell)."""
+    inner, steps = sizes[1:-1], room[1:-1]
+    ticked = np.isclose(steps, resolution)
+    if resolution < WHOLE_SECOND_TICK_S or ticked.sum() < TICKED_RUNS or not np.isclose(np.median(steps), resolution):
+        return float("nan")
+    return float(steps[ticked].sum() / inner[ticked].sum())
 
 
 def with_spread_times(log: DvlLog) -> tuple[DvlLog, list[tuple[str, str, int]]]:
@@ -1372,14 +1483,19 @@ def _stall_note(t: np.ndarray, spread: np.ndarray, stalled: np.ndarray, where: l
     runs = int(np.sum(stalled[1:] & ~stalled[:-1]) + stalled[0])
     starts, sizes, room = _time_groups(t)
     own = _own_times(sizes)
+    ticked = not own and np.isfinite(_tick_period(sizes, room, _clock_resolution(t[starts])))
     rank = np.arange(len(t)) - np.repeat(starts, sizes)
-    paused = int(np.sum(stalled & (spread - t > rank * period + 1e-6)))
+    after = stalled & (spread - t > rank * period + 1e-6)
+    paused = int(np.sum(after))
     tail = (f"; {paused} of them after the pause between bursts it stood still across, put after each pause it stood "
-            "across (as long as the clock's other pauses) at the ping period") if paused else ""
+            "across (as long as the clock's other pauses, or at the bursts' interval) at the ping period"
+            ) if paused else ""
+    tail += _unplaced_note(t, (starts, sizes, room), stalled, after, period)
     if stalled[-1]:
         tail += (f"; after its last time ({_utc(t[-1])}) it never ran on: those {int(np.sum(t == t[-1]))} pings are "
                 f"dead-reckoned at the ping period ({period:.3f} s, "
-                f"{'its steps' if own else 'what its stalls ended in'}), not squeezed into its tick")
+                f"{'its steps' if own else 'its ticks' if ticked else 'what its stalls ended in'}), not squeezed into "
+                "its tick")
     lost = (np.add.reduceat(stalled, starts) > 0) & (room < (sizes - 1 - STALL_MARGIN_PERIODS) * period)
     if lost.any():          # the clock ran on from where it stood, not from the right time: it lost the stall
         g = int(np.flatnonzero(lost)[0])
@@ -1391,10 +1507,33 @@ def _stall_note(t: np.ndarray, spread: np.ndarray, stalled: np.ndarray, where: l
                  + "; give the pings their times if another clock has them (a CSV of DVL velocities: t, vx, vy, vz)")
     return (f"the DVL's clock stood still: {run} pings from {where[head]} share its time {_utc(t[first])}, "
             f"{jump}, " + ("while elsewhere it gives each ping a time of its own" if own else
+                           f"more pings than its other ticks hold (a ping every {period:.3f} s)" if ticked else
                            "more pings than a DVL takes within one tick of its clock")
             + (f" ({runs} such stall(s), {int(stalled.sum())} ping(s) in all)" if runs > 1 else "")
             + ": spread evenly up to the next time at the ping period at most, at most "
             f"{np.max((spread - t)[stalled]):.3f} s after the time recorded{tail}; their times are a guess")
+
+
+def _unplaced_note(t: np.ndarray, groups: tuple, stalled: np.ndarray, after: np.ndarray, period: float) -> str:
+    """What :func:`_stall_note` says of the stalls of a clock pinging in bursts that stood across a pause (the clock
+    jumped further than their pings take at the ``period`` s) but none of whose pings :func:`_after_pauses` could put
+    after it (bursts of irregular size at no fixed interval, or several pauses stood across): where the pause falls
+    among their pings cannot be told, so those after it are early; "" when there are none. ``groups`` are
+    :func:`_time_groups`' runs, ``stalled`` and ``after`` (M,) the pings stalled and put after a pause."""
+    starts, sizes, room = groups
+    held = np.add.reduceat(stalled, starts) > 0
+    bursts = np.sum(~held & (sizes == 1) & np.isfinite(room) & (room > PAUSE_PERIODS * period)) >= 2
+    placed = np.add.reduceat(after, starts) > 0
+    across = held & ~placed & np.isfinite(room) & (room > (sizes + PAUSE_PERIODS) * period)
+    if not bursts or not across.any():
+        return ""
+    g = int(np.flatnonzero(across)[0])
+    early = room[g] - sizes[g] * period
+    return (f"; the {sizes[g]} pings at {_utc(t[starts[g]])} stood across a pause between bursts (the clock jumped "
+            f"{room[g]:.2f} s, {early:.1f} s more than they take at the ping period)"
+            + (f" ({int(across.sum())} such stall(s))" if across.sum() > 1 else "")
+            + ": which of them came after the pause cannot be told from bursts of irregular size, so they are put on "
+            f"from its time and those after the pause are up to {early:.1f} s early")
 
 
 def pd0_geometry(config: SensorConfig, meta: dict) -> SensorConfig:
