@@ -584,3 +584,115 @@ def test_a_topic_received_at_another_pace_than_stamped_keeps_its_header_stamps(s
     said = [w for w in warned if "received at another pace than it was stamped" in w]
     assert len(said) == 1 and f"{topic}, field 'receive time'" in said[0], said
     assert not [w for w in warned if "the header clock runs" in w], warned
+
+
+def _dvl_received_later(latency_s, slow=0.0):
+    """A change (:func:`_rewritten`) of the DVL's messages: each received ``latency_s(t)`` s after its time ``t`` (s
+    into the bag); ``slow``: its header clock running that much slow against every other clock."""
+    t0 = {}
+
+    def change(t, k, msg, rx):
+        if t != "/dvl/data":
+            return rx
+        t0.setdefault("ns", _stamp_ns(msg))
+        _set_stamp(msg, t0["ns"] + round((_stamp_ns(msg) - t0["ns"]) * (1.0 - slow)))
+        return rx + round(latency_s((rx - T0_NS) / NS) * NS)
+    return change
+
+
+def test_a_dvl_received_ever_later_keeps_its_right_header_stamps(sim, tmp_path):
+    """The DVL's pings received 0.05 s after their time at the start, 0.35 s at the end (a recorder's queue filling),
+    every header stamp right. Header minus receive time drifting 0.3 s was read as the DVL's clock running 1 % slow:
+    its right stamps were moved, the last 0.3 s late. A clock running slow puts the header stamps off the pings' round
+    rate; a queue filling leaves them on it and puts the receive time off it: now the header stamps are kept, warned
+    as the latency growing and counted; the same DVL on a clock 1 % slow (received on time) is still taken out."""
+    _, clean_path, _ = sim
+    clean, _ = _load(clean_path)
+    n = clean.dvl.t.size
+    m, warned = _load(_rewritten(clean_path, tmp_path / "queue", _dvl_received_later(lambda t: 0.05 + 0.01 * t)))
+    np.testing.assert_array_equal(m.dvl.t, clean.dvl.t)
+    assert m.meta["streams"]["dvl"]["doubted"] == {bag_stamps.HEADER_LATENCY_GROWS: n}
+    said = [w for w in warned if "/dvl/data, field 'header.stamp'" in w]
+    assert len(said) == 1 and "its period 1.000000 s on the header clock, 1.010000 s on the IMU's as received" in \
+        said[0] and said[0].endswith("the recorder's latency grows (a queue filling), not the header clock: the "
+                                     "header stamps are kept"), said
+    m, warned = _load(_rewritten(clean_path, tmp_path / "slow", _dvl_received_later(lambda t: 0.05, slow=0.01)))
+    assert np.abs(m.dvl.t - clean.dvl.t).max() < 1e-6
+    assert m.meta["streams"]["dvl"]["doubted"] == {bag_stamps.HEADER_CLOCK_DRIFT: n}
+
+
+def test_a_dvl_clock_running_slow_and_stepping_has_its_step_measured_off_the_drift(tmp_path):
+    """The DVL's clock runs 1 % slow and steps +5 s at ping 75 of a 150 s bag, its pings received 0.25-0.35 s after
+    their time. The step was measured between medians of header minus receive time some 100 s apart, a second of
+    drift between them: read as +4 s and one ping lost, the stamps moved back 4.010 s, the later pings left 0.997 s
+    late once the drift was taken out. Now the step is measured with the drift taken out: moved back 5.000 s, the
+    drift then taken out leaves every ping within 0.02 s."""
+    clean_path = bags.write_mission_bag(simulate_mission(duration_s=150.0, seed=5), tmp_path / "clean",
+                                        t0_unix_ns=T0_NS)
+    clean, _ = _load(clean_path)
+    rng = np.random.default_rng(8)
+    slow = _dvl_received_later(lambda t: 0.25 + 0.1 * rng.random(), slow=0.01)
+
+    def change(t, k, msg, rx):
+        rx = slow(t, k, msg, rx)
+        if t == "/dvl/data" and k >= 75:
+            _set_stamp(msg, _stamp_ns(msg) + 5 * NS)
+        return rx
+    m, warned = _load(_rewritten(clean_path, tmp_path / "slowstep", change))
+    said = [w for w in warned if "message 75 (t = " in w]
+    assert len(said) == 1 and said[0].endswith("moved back by 5.000 s onto the clock before the step"), said
+    assert m.meta["streams"]["dvl"]["doubted"] == {bag_stamps.HEADER_CLOCK_STEP: clean.dvl.t.size - 75,
+                                                   bag_stamps.HEADER_CLOCK_DRIFT: clean.dvl.t.size}
+    assert np.abs(m.dvl.t - clean.dvl.t).max() < 0.02
+
+
+@pytest.mark.parametrize("topic, off_ms", [("/dvl/data", 500), ("/imu/data", -5), ("/imu/data", 5)])
+def test_a_header_clock_stepping_under_a_gap_is_repaired(sim, tmp_path, topic, off_ms):
+    """The DVL's header clock steps +0.5 s at ping 15 (a 1.5 s step: under the two periods a gap is judged from), the
+    IMU's -5 ms or +5 ms at sample 1500 (half its period: its stamps still increase), every message received as before
+    (the DVL 0.25-0.35 s after its time, the IMU 1-1.5 ms). The DVL's later pings were left 0.5 s late without a word,
+    the IMU's 5 ms off (warned as a step off its period, the samples keeping their stamps). Now header minus receive
+    time stepping where the stamps leave their grid is the header clock's step, taken out either way as a step back of
+    a DVL is: the stamps from it on moved onto the clock before it, warned and counted."""
+    _, clean_path, _ = sim
+    clean, _ = _load(clean_path)
+    rng = np.random.default_rng(12)
+    stream, at = ("dvl", 15) if topic == "/dvl/data" else ("imu", 1500)
+
+    def change(t, k, msg, rx):
+        if t == topic and k >= at:
+            _set_stamp(msg, _stamp_ns(msg) + off_ms * NS // 1000)
+        if t == "/imu/data":
+            return rx + round((0.001 + 0.0005 * rng.random()) * NS)
+        return rx + _latency_ns(rng) if t == "/dvl/data" else rx
+    m, warned = _load(_rewritten(clean_path, tmp_path / f"step{stream}{off_ms}", change))
+    n = getattr(clean, stream).t.size
+    np.testing.assert_allclose(getattr(m, stream).t, getattr(clean, stream).t, atol=2e-9)
+    reason = bag_stamps.HEADER_CLOCK_STEP if off_ms > 0 else bag_stamps.HEADER_CLOCK_STEP_BACK
+    assert m.meta["streams"][stream]["doubted"] == {reason: n - at}
+    said = [w for w in warned if f"message {at}, field 'header.stamp': the header clock steps" in w]
+    way = ("forward", "back") if off_ms > 0 else ("back", "forward")
+    assert len(said) == 1 and f"the header clock steps {way[0]} (" in said[0] and said[0].endswith(
+        f"the stamps from this message on are moved {way[1]} by {abs(off_ms) / 1000:.3f} s onto the clock before the "
+        "step"), said
+
+
+def test_a_topics_exact_copies_are_looked_for_once_beside_an_imus_filler(sim, tmp_path, monkeypatch):
+    """The IMU's messages 700-709 written whole as zeros, their stamps too (a logger's filler): the messages published
+    twice were looked for on the IMU's other messages to judge their stamps, then again on the same messages to drop
+    them. Once now, the filler refused as before."""
+    _, clean_path, _ = sim
+    calls = []
+    copies = bag_convert._copies
+    monkeypatch.setattr(bag_convert, "_copies", lambda stream, *a: calls.append(stream) or copies(stream, *a))
+
+    def change(t, k, msg, rx):
+        if t == "/imu/data" and 700 <= k < 710:
+            _set_stamp(msg, 0)
+            for v in (msg.linear_acceleration, msg.angular_velocity):
+                v.x = v.y = v.z = 0.0
+        return rx
+    m, _ = _load(_rewritten(clean_path, tmp_path / "filler", change))
+    assert m.meta["streams"]["imu"]["refused"] == {
+        "all-zero IMU row (a logger's filler: zero specific force is impossible under gravity)": 10}
+    assert calls.count("imu") == 1, calls

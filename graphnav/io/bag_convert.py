@@ -26,9 +26,10 @@ from graphnav.core.screening import (EXACT_COPY, IMU_FILLER, MAX_STAMP_GAP_S, NU
 from graphnav.core.streams import add_note, count_refused, say_doubted
 from graphnav.io import bag_fields
 from graphnav.io.bag_stamps import (CLOCK_DRIFT_MAX_RATE, CLOCK_DRIFT_NOTE_S, HEADER_CLOCK_DRIFT,
-                                    HEADER_CLOCK_DRIFT_UNTOLD, HEADER_CLOCK_STEP, HEADER_STEP_SPREADS,
-                                    RECEIVED_OFF_PACE, clock_step_moved, latency_drop, latency_rate, latency_step,
-                                    nearer_the_receive_clock, on_the_grid, say_set_right, say_steps_back,
+                                    HEADER_CLOCK_DRIFT_UNTOLD, HEADER_CLOCK_STEP, HEADER_LATENCY_GROWS,
+                                    HEADER_STEP_SPREADS, RECEIVED_OFF_PACE, clock_step_moved, latency_drop,
+                                    latency_rate, latency_step, latency_trend, nearer_the_receive_clock,
+                                    off_round_rate, on_the_grid, say_set_right, say_steps_back, schedule_periods,
                                     steps_back_repaired)
 from graphnav.io.bag_msgs import MARINE_DVL, WL_DVL
 
@@ -190,14 +191,18 @@ def decoded_stream(topic: str, msgtype: str, header_ns: np.ndarray | None, recei
     index = np.arange(len(rows))
     zeroed = _zeroed_filler(stream, header_ns, rows, label)
     rest = ~zeroed       # the other messages' stamps judged as below, without the messages published twice
-    if zeroed.any() and why_not_header(np.delete(header_ns[rest], _copies(stream, header_ns[rest],
-                                                                          values[rest]))) is None:
-        count_refused(sub, stream, IMU_FILLER, int(zeroed.sum()))
-        twice[IMU_FILLER] = (np.flatnonzero(zeroed), receive_ns[zeroed], 0.0)
-        index = np.flatnonzero(rest)
-        header_ns, receive_ns, values = header_ns[index], receive_ns[index], values[index]
+    copies = None       # found once on the messages they are dropped from
+    if zeroed.any():
+        copies = _copies(stream, header_ns[rest], values[rest])
+        if why_not_header(np.delete(header_ns[rest], copies)) is None:
+            count_refused(sub, stream, IMU_FILLER, int(zeroed.sum()))
+            twice[IMU_FILLER] = (np.flatnonzero(zeroed), receive_ns[zeroed], 0.0)
+            index = np.flatnonzero(rest)
+            header_ns, receive_ns, values = header_ns[index], receive_ns[index], values[index]
+        else:
+            copies = None
     if header_ns is not None and len(rows) > 2 and np.all(header_ns != 0):
-        copies = _copies(stream, header_ns, values)
+        copies = _copies(stream, header_ns, values) if copies is None else copies
         if copies.size:
             count_refused(sub, stream, EXACT_COPY, int(copies.size))
             twice[EXACT_COPY] = (index[copies], header_ns[copies], 0.0)
@@ -296,9 +301,10 @@ def header_clock_steps_removed(s: Stream, source: str, meta: dict, steps: list |
     (:func:`graphnav.io.bag_stamps.latency_drop`) is told by the sample grid: stamps staying on it across the gap are
     messages lost (left, warned), stamps leaving it a clock step (moved); stamps too uneven to tell are moved, the
     warning saying it could not be told. Each step moved back is appended to ``steps`` (when given) as (the receive
-    time of its first message, ns; the stamps' shift, ns) for :func:`shared_clock_step_removed`. Before them, a topic
-    other than the IMU's has its steps back under a period (its stamps still increasing, so not repaired as they
-    were chosen) taken out by :func:`graphnav.io.bag_stamps.steps_back_repaired`; either way the stamps are moved by
+    time of its first message, ns; the stamps' shift, ns) for :func:`shared_clock_step_removed`. Before them, any
+    topic, the IMU's too, has its steps back under a period and forward under :data:`GAP_WARN_SAMPLES` (its stamps
+    still increasing without a gap, so not repaired as they were chosen nor judged as a gap) taken out by
+    :func:`graphnav.io.bag_stamps.steps_back_repaired` (the IMU's own: not shared); either way the stamps are moved by
     :func:`graphnav.io.bag_stamps.clock_step_moved` and a clock set right is said in one wording."""
     from graphnav.core.imu_timing import GAP_WARN_SAMPLES, imu_step_stats
     if s.stamp_kind != "header" or s.receive_ns is None or len(s.t_ns) < 3:
@@ -309,15 +315,18 @@ def header_clock_steps_removed(s: Stream, source: str, meta: dict, steps: list |
     if not np.isfinite(period) or period <= 0:
         return s
     moved = 0
-    if kind != "imu":
-        # a step back under a period keeps the stamps increasing: not taken out with the others as they were chosen
-        back = steps_back_repaired(t_ns, rx_ns, kind, None, clock_s)
-        if back is not None:
-            t_ns, moved = back[0], len(back[1])
-            say_steps_back(back[1], meta, kind, f"{source}:{s.topic}", index=s.index)
+    # a step back under a period (forward under two) keeps the stamps increasing (not gapping): not taken out as they
+    # were chosen (nor below)
+    back = steps_back_repaired(t_ns, rx_ns, kind, None, clock_s, forward=True)
+    if back is not None:
+        t_ns, moved = back[0], len(back[1])
+        say_steps_back(back[1], meta, kind, f"{source}:{s.topic}", index=s.index)
     latency = (t_ns - rx_ns) / 1e9      # moved with the stamps: computed once (a gap per second over hours)
-    for i in np.flatnonzero(np.diff(t_ns) / 1e9 >= GAP_WARN_SAMPLES * period):
-        step, spread = latency_step(latency, i + 1)
+    gaps = np.flatnonzero(np.diff(t_ns) / 1e9 >= GAP_WARN_SAMPLES * period)
+    # a header clock drifting as it steps: the step measured off the drift (1 % slow read a +5 s step as +4 s)
+    trend = latency_trend(t_ns, rx_ns) if gaps.size else None
+    for i in gaps:
+        step, spread = latency_step(latency, i + 1, trend=trend)
         if step < max(GAP_WARN_SAMPLES * period, HEADER_STEP_SPREADS * spread):
             continue
         jump = (t_ns[i + 1] - t_ns[i]) / 1e9
@@ -360,7 +369,8 @@ def header_clock_steps_removed(s: Stream, source: str, meta: dict, steps: list |
     return dataclasses.replace(s, t_ns=t_ns) if moved else s
 
 
-def header_clock_drift_removed(s: Stream, source: str, meta: dict, kind: str, clock_rate: float = 0.0) -> Stream:
+def header_clock_drift_removed(s: Stream, source: str, meta: dict, kind: str, clock_rate: float | None = 0.0
+                               ) -> Stream:
     """``s`` (a topic other than the IMU's, on its header stamps, its steps taken out) with its header clock's drift
     against the IMU's taken out: header minus receive time running on a line
     (:func:`~graphnav.io.bag_stamps.latency_rate`) that leaves the IMU's (``clock_rate``: the IMU's, s per s; a
@@ -370,12 +380,15 @@ def header_clock_drift_removed(s: Stream, source: str, meta: dict, kind: str, cl
     counted as doubted on ``kind``; the stamps are moved onto the IMU's rate from the first message on when the drift
     is over :data:`HEADER_STEP_SPREADS` of the latency's spread about its line, else kept (the warning says so). A
     drift faster than :data:`~graphnav.io.bag_stamps.CLOCK_DRIFT_MAX_RATE` is no clock's: the topic received at
-    another pace than stamped (replayed, written into the bag later), warned and counted, its header stamps kept."""
+    another pace than stamped (replayed, written into the bag later), warned and counted, its header stamps kept. A
+    clear drift is taken out only where the header clock is shown to drift rather than the recorder's latency to grow
+    (:func:`_drift_kept`); ``clock_rate`` None: the IMU is on the receive time, the mission's clock the recorder's,
+    and a clear drift is taken out onto it (a recorder's clock drifting would read as every topic's latency growing)."""
     if s.stamp_kind != "header" or s.receive_ns is None:
         return s
     t_ns = np.asarray(s.t_ns, np.int64)
     rate, spread = latency_rate(t_ns, s.receive_ns)
-    rate -= clock_rate
+    rate -= clock_rate or 0.0
     span = (int(s.receive_ns[-1]) - int(s.receive_ns[0])) / 1e9 if len(t_ns) else 0.0
     drift = rate * span
     if abs(drift) <= CLOCK_DRIFT_NOTE_S:
@@ -395,10 +408,43 @@ def header_clock_drift_removed(s: Stream, source: str, meta: dict, kind: str, cl
         say_doubted(meta, kind, source, text + "too spread to take the drift out: the header stamps are kept",
                     HEADER_CLOCK_DRIFT_UNTOLD, len(t_ns), stacklevel=2)
         return s
+    why = None if clock_rate is None else _drift_kept(t_ns, s.receive_ns, rate, clock_rate)
+    if why is not None:
+        latency = why[1] == HEADER_LATENCY_GROWS
+        text = (f"{s.topic}, field '{STAMP_FIELDS['header']}': {seen}, {abs(rate) * 100:.3f} % against the IMU's: "
+                if latency else text)
+        say_doubted(meta, kind, source, text + why[0], why[1], len(t_ns), stacklevel=2)
+        return s
     moved = t_ns[0] + np.round((t_ns - t_ns[0]) / (1.0 + rate)).astype(np.int64)
     say_doubted(meta, kind, source, text + f"the stamps are moved onto the IMU's clock rate from the first message on "
                 f"({(moved[-1] - t_ns[-1]) / 1e9:+.3f} s at the last)", HEADER_CLOCK_DRIFT, len(t_ns), stacklevel=2)
     return dataclasses.replace(s, t_ns=moved)
+
+
+def _drift_kept(t_ns: np.ndarray, receive_ns: np.ndarray, rate: float, clock_rate: float) -> tuple[str, str] | None:
+    """Why a topic's header minus receive time drifting by ``rate`` (s per s against the IMU's, whose own is
+    ``clock_rate``) is not its header clock's drift to take out, as (the warning's end, the reason counted); None when
+    the clock is shown drifting: the messages come at a round rate on the IMU's clock
+    (:func:`~graphnav.io.bag_stamps.schedule_periods`, :data:`~graphnav.io.bag_stamps.ROUND_RATES_HZ`, within a
+    quarter of the drift) and their header stamps leave it by the drift. A recorder's latency growing (a queue
+    filling) drifts header minus receive time alike, but leaves the header stamps at their round rate and the
+    receive time off it: then the header stamps are kept; neither round (a DVL pinging at its own pace), it cannot be
+    told, and they are kept too."""
+    sched = schedule_periods(t_ns, receive_ns, clock_rate)
+    bar = abs(rate) / 4
+    if sched is not None:
+        header, received, se = sched
+        if off_round_rate(received) < bar and 3 * se < bar:
+            return None
+        periods = f"its period {header:.6f} s on the header clock, {received:.6f} s on the IMU's as received"
+        if off_round_rate(header) < bar:
+            return (f"{periods}: the header stamps keep a round rate and the receive time leaves it, so the "
+                    "recorder's latency grows (a queue filling), not the header clock: the header stamps are kept",
+                    HEADER_LATENCY_GROWS)
+    else:
+        periods = "its stamps too uneven to time the messages' period"
+    return (f"{periods}: neither shows which clock keeps the messages' round rate, so the header clock drifting "
+            "cannot be told from the recorder's latency growing: the header stamps are kept", HEADER_CLOCK_DRIFT_UNTOLD)
 
 
 def _say_lost_as_latency_dropped(s: Stream, at: str, jump: float, rx_s: float, step: float, lost_n: int, kind: str,

@@ -45,12 +45,15 @@ GRID_JITTER_SHARE = 0.1
 MAX_STEPS_BACK = 20
 
 
-def latency_step(latency: np.ndarray, k: int, lo: int = 0, hi: int | None = None) -> tuple[float, float]:
+def latency_step(latency: np.ndarray, k: int, lo: int = 0, hi: int | None = None,
+                 trend: np.ndarray | None = None) -> tuple[float, float]:
     """How far header minus receive time ``latency`` (s) steps at message ``k`` (the medians over
     :data:`HEADER_STEP_WINDOW` messages either side, within messages ``lo`` to ``hi``: the steps either side of it),
-    and its spread before it (median absolute deviation), s."""
-    before = latency[max(lo, k - HEADER_STEP_WINDOW):k]
-    after = latency[k:min(len(latency) if hi is None else hi, k + HEADER_STEP_WINDOW)]
+    and its spread before it (median absolute deviation), s. ``trend`` (s, :func:`latency_trend`): the latency's
+    drift, taken out about message ``k`` first (a header clock 1 % slow adds a second between windows 100 s apart)."""
+    lat = latency if trend is None else latency - (trend - trend[k])
+    before = lat[max(lo, k - HEADER_STEP_WINDOW):k]
+    after = lat[k:min(len(latency) if hi is None else hi, k + HEADER_STEP_WINDOW)]
     return (float(np.median(after) - np.median(before)),
             float(np.median(np.abs(before - np.median(before)))))
 
@@ -190,7 +193,7 @@ def say_set_right(meta: dict, stream: str, label: str, at: str, s: dict, prev: s
 
 
 def steps_back_repaired(header_ns: np.ndarray, receive_ns: np.ndarray, stream: str, stalled: np.ndarray | None,
-                        clock_s: float = 0.0) -> tuple[np.ndarray, list[dict]] | None:
+                        clock_s: float = 0.0, forward: bool = False) -> tuple[np.ndarray, list[dict]] | None:
     """``header_ns`` (ns) with each step back of the topic's header clock the receive clock ``receive_ns`` (ns) does
     not show taken out: a stamp at or before the one before it, the first after a stall (``stalled``, from
     :func:`stall_restamped`: a clock that resumes from the value it froze at rather than jumping ahead), or a stamp
@@ -202,7 +205,11 @@ def steps_back_repaired(header_ns: np.ndarray, receive_ns: np.ndarray, stream: s
     than the IMU's whose clock was set right there (:func:`set_right`, judged against the IMU's header minus receive
     time ``clock_s``, s), those before it back onto the clock after. Either move stops at the jump back by as much
     that bounds the stretch (a glitch of the clock: only its stamps move). A drop the window sees that this message's
-    own stamp does not make (a step elsewhere in the window) is not this message's. Stalled messages are left for
+    own stamp does not make (a step elsewhere in the window) is not this message's. ``forward``: the steps forward
+    under :data:`~graphnav.core.imu_timing.GAP_WARN_SAMPLES` periods too (a gap of more is judged with the messages it
+    may have lost, :func:`graphnav.io.bag_convert.header_clock_steps_removed`), found alike where header minus receive
+    time rises and the stamps leave their grid, their stamps moved back (one ending where the clock steps back by as
+    much is left to that step, as a glitch set right). Stalled messages are left for
     :func:`_stall_stamps`. None when nothing was repaired; else (the stamps, one dict per step: ``k`` the message,
     ``prev`` the message before it judged, ``jump_s``, ``rx_s``, ``shift_s`` (the stamps' move), ``before`` True
     when the messages before it moved, ``n`` how many moved, ``first``/``last`` the first and last moved,
@@ -224,15 +231,23 @@ def steps_back_repaired(header_ns: np.ndarray, receive_ns: np.ndarray, stream: s
     cand = np.union1d(np.flatnonzero(d <= 0) + 1, drops)
     if stalled is not None:
         cand = np.union1d(cand, np.flatnonzero(np.diff(ok) > 1) + 1)
-    if not cand.size or cand.size > MAX_STEPS_BACK:
+    rises = _rises(t, latency, jumps, period) if forward else np.zeros(0, int)
+    if rises.size > MAX_STEPS_BACK:
+        rises = rises[:0]       # so many are no clock's steps either; the steps back are judged as before
+    if not (cand.size + rises.size) or cand.size > MAX_STEPS_BACK:
         return None
     bounds = np.union1d(jumps, cand)
+    # the drift taken out on increasing stamps alone: on stamps not yet sane its line runs through their steps
+    trend = latency_trend(t, rx) if forward else None
     done = []
-    for j in cand:
+    for j in np.union1d(cand, rises):
         lo = int(bounds[bounds < j].max(initial=0))
         hi = int(bounds[bounds > j].min(initial=len(t)))
-        step, spread = latency_step(latency, j, lo, hi)
-        if -step < max(period / 4, HEADER_STEP_SPREADS * spread) or latency[j] - latency[j - 1] > step / 2:
+        step, spread = latency_step(latency, j, lo, hi, trend)
+        sign = 1.0 if j in rises else -1.0
+        if (sign * step < max(period / 4, HEADER_STEP_SPREADS * spread)
+                or sign * (latency[j] - latency[j - 1]) < sign * step / 2
+                or sign > 0 and hi in cand and _returns(latency, hi, step, spread)):
             continue
         moved = clock_step_moved(t, latency, j, step, spread, period, stream, clock_s, lo, hi)
         first, end = int(ok[moved["first"]]), int(ok[moved["end"]]) if moved["end"] < len(t) else len(header_ns)
@@ -243,6 +258,17 @@ def steps_back_repaired(header_ns: np.ndarray, receive_ns: np.ndarray, stream: s
     out = header_ns.copy()
     out[ok] = t
     return out, done
+
+
+def _rises(t_ns: np.ndarray, latency: np.ndarray, jumps: np.ndarray, period_s: float) -> np.ndarray:
+    """The messages among ``jumps`` (:func:`latency_jumps`) where header minus receive time ``latency`` (s) rises as
+    the header stamps ``t_ns`` (ns) step forward under :data:`~graphnav.core.imu_timing.GAP_WARN_SAMPLES` periods
+    ``period_s`` (s) off their sample grid (:func:`on_the_grid`): where the header clock may step forward."""
+    from graphnav.core.imu_timing import GAP_WARN_SAMPLES
+    d = np.diff(t_ns) / 1e9
+    dj = d[jumps - 1]
+    up = jumps[(latency[jumps] > latency[jumps - 1]) & (dj > 0) & (dj < GAP_WARN_SAMPLES * period_s)]
+    return np.array([j for j in up if on_the_grid(t_ns, j, period_s) is False], int)
 
 
 def say_steps_back(steps: list[dict], meta: dict, stream: str, label: str, stacklevel: int = 3,
@@ -256,13 +282,16 @@ def say_steps_back(steps: list[dict], meta: dict, stream: str, label: str, stack
         if s["before"]:
             say_set_right(meta, stream, label, at, s, name(s["prev"]), name(s["first"]), stacklevel=stacklevel)
             continue
+        back = s["shift_s"] > 0
         which = ("from this message on" if s["whole"] else
                  f"from this message to {name(s['last'])} (after which the clock steps back by as much), {s['n']},")
-        text = (f"{at}the header clock steps back (its stamp {s['jump_s']:+.3f} s after {name(s['prev'])}'s, received "
-                f"{s['rx_s']:+.3f} s after it; header minus receive time {s['latency_s'][0]:+.3f} s before, "
-                f"{s['latency_s'][1]:+.3f} s after) while the messages kept arriving; the stamps {which} are moved "
-                f"forward by {s['shift_s']:.3f} s onto the clock before the step")
-        say_doubted(meta, stream, label, text, HEADER_CLOCK_STEP_BACK, s["n"], stacklevel=stacklevel)
+        text = (f"{at}the header clock steps {'back' if back else 'forward'} (its stamp {s['jump_s']:+.3f} s after "
+                f"{name(s['prev'])}'s, received {s['rx_s']:+.3f} s after it; header minus receive time "
+                f"{s['latency_s'][0]:+.3f} s before, {s['latency_s'][1]:+.3f} s after) while the messages kept "
+                f"arriving; the stamps {which} are moved {'forward' if back else 'back'} by {abs(s['shift_s']):.3f} s "
+                "onto the clock before the step")
+        say_doubted(meta, stream, label, text, HEADER_CLOCK_STEP_BACK if back else HEADER_CLOCK_STEP, s["n"],
+                    stacklevel=stacklevel)
 
 
 #: A topic's header clock whose header minus receive time drifts (against the IMU's) by more than this over the
@@ -296,6 +325,64 @@ def latency_rate(t_ns: np.ndarray, receive_ns: np.ndarray) -> tuple[float, float
     rate, c = np.polyfit(rx, latency, 1)
     res = latency - (rate * rx + c)
     return float(rate), 1.4826 * float(np.median(np.abs(res - np.median(res))))
+
+
+#: The rates a driver publishes at, Hz (times the powers of ten): each at least 1.2 times the next lower, so a rate
+#: within :data:`CLOCK_DRIFT_MAX_RATE` of one is near no other.
+ROUND_RATES_HZ = (1.0, 1.25, 1.5, 2.0, 2.5, 3.0, 4.0, 5.0, 6.0, 8.0)
+#: A topic's messages numbered by their header stamps must come at least this many to time their schedule.
+SCHEDULE_MIN_MESSAGES = 10
+HEADER_LATENCY_GROWS = ("received ever later while the header stamps keep their round rate (a recorder's queue "
+                        "filling: the header stamps kept)")
+
+
+def off_round_rate(period_s: float) -> float:
+    """How far (relative) the rate of ``period_s`` (s) lies from the nearest of :data:`ROUND_RATES_HZ` (times a power
+    of ten); inf for no positive finite period."""
+    if not np.isfinite(period_s) or period_s <= 0:
+        return np.inf
+    rate = 1.0 / period_s
+    decade = 10.0 ** np.floor(np.log10(rate))
+    near = np.array([*ROUND_RATES_HZ, 10.0]) * decade
+    return float(np.min(np.abs(rate / near - 1.0)))
+
+
+def schedule_periods(t_ns: np.ndarray, receive_ns: np.ndarray, clock_rate: float = 0.0
+                     ) -> tuple[float, float, float] | None:
+    """(the period of a topic's messages on its header clock, s; on the IMU's clock as the receive time says (the
+    recorder's clock moved onto the IMU's by ``clock_rate``: the IMU's header minus receive time drift, s per s), s;
+    the relative standard error of the latter): straight lines through header stamps ``t_ns`` and receive stamps
+    ``receive_ns`` (ns) against each message's number on the header clock (its stamp over the median step, so a
+    message lost is a number skipped). None with under :data:`SCHEDULE_MIN_MESSAGES` messages or stamps too uneven
+    to number (a step off whole periods by more than a quarter)."""
+    t = (np.asarray(t_ns, np.int64) - int(t_ns[0])) / 1e9
+    rx = (np.asarray(receive_ns, np.int64) - int(receive_ns[0])) / 1e9
+    d = np.diff(t)
+    if len(t) < SCHEDULE_MIN_MESSAGES or not np.any(d > 0):
+        return None
+    step = float(np.median(d[d > 0]))
+    k = np.round(t / step)
+    if np.any(np.abs(t / step - k) > 0.25) or np.any(np.diff(k) <= 0):
+        return None
+    header = float(np.polyfit(k, t, 1)[0])
+    (received, _), cov = np.polyfit(k, rx, 1, cov="unscaled")
+    res = rx - np.polyval(np.polyfit(k, rx, 1), k)
+    se = float(np.sqrt(cov[0, 0] * np.sum(res ** 2) / max(1, len(k) - 2)))
+    return header, float(received) * (1.0 + clock_rate), se / abs(float(received))
+
+
+def latency_trend(t_ns: np.ndarray, receive_ns: np.ndarray) -> np.ndarray | None:
+    """Header minus receive time's drift at each message of a topic on header stamps ``t_ns`` received at
+    ``receive_ns`` (ns), s from the first (:func:`latency_rate`: its steps taken out): None unless it drifts by more
+    than :data:`CLOCK_DRIFT_NOTE_S` and :data:`HEADER_STEP_SPREADS` of its spread about the line over the topic, as a
+    drift is taken out (:func:`graphnav.io.bag_convert.header_clock_drift_removed`; the steps of a latency jumping
+    between messages, an IMU's in packets, are taken out a packet's sawtooth off and leave a false drift under that
+    spread)."""
+    rate, spread = latency_rate(t_ns, receive_ns)
+    rx = (np.asarray(receive_ns, np.int64) - int(receive_ns[0])) / 1e9
+    if not len(rx) or abs(rate * rx[-1]) <= max(CLOCK_DRIFT_NOTE_S, HEADER_STEP_SPREADS * spread):
+        return None
+    return rate * rx
 
 
 def why_not_header(header_ns: np.ndarray) -> str | None:

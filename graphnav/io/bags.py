@@ -408,7 +408,7 @@ def load_bag(path: str | Path, config: SensorConfig | None = None, topics: dict[
     steps: list = []
     stepped = conv.header_clock_steps_removed(imu_s, source, meta, steps)
     clock_s = header_minus_receive_s(stepped.t_ns, stepped.receive_ns, stepped.stamp_kind)
-    clock_rate = latency_rate(stepped.t_ns, stepped.receive_ns)[0] if stepped.stamp_kind == "header" else 0.0
+    clock_rate = latency_rate(stepped.t_ns, stepped.receive_ns)[0] if stepped.stamp_kind == "header" else None
     # the IMU's topic read again as the heading (an AHRS) moves with it; the other topics whose header clock stepped
     # with the IMU's move back with it, then each other topic's own header clock steps are taken out as the IMU's
     own: dict[int, Stream] = {id(imu_s): stepped}
