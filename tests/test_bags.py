@@ -1374,6 +1374,20 @@ def test_filler_messages_with_zeroed_header_stamps_are_filler_not_a_reason_for_r
     assert any("receive time" in n for n in imu["notes"]) and not any("in the stamps" in w for w in warned)
 
 
+def test_the_gap_filler_with_zeroed_header_stamps_leaves_is_no_samples_lost(tmp_path):
+    """21 IMU messages of filler with their header stamps zeroed (0.21 s): refused as filler, and the gap they leave
+    was warned about again as '21 samples lost' and counted as doubted. It is said once, as the filler refused."""
+    from graphnav.core.screening import IMU_FILLER, IMU_GAP
+    mission = simulate_mission(duration_s=40.0, seed=5)
+    rows = list(range(2000, 2021))
+    mission.imu.f_b[rows], mission.imu.omega_b[rows] = 0.0, 0.0
+    m, warned = _load(_zeroed_header_bag(mission, tmp_path / "zeroed", rows), mission.config)
+    imu = m.meta["streams"]["imu"]
+    assert imu["refused"] == {IMU_FILLER: 21} and IMU_GAP not in imu.get("doubted", {})
+    assert not [w for w in warned if "samples lost" in w]
+    assert len([w for w in warned if IMU_FILLER in w]) == 1
+
+
 def test_a_bag_loaded_then_screened_has_its_imu_screened_once(tmp_path, monkeypatch):
     """A bag read by ``load_bag`` (its IMU messages holding no measurement refused at read) and then screened by
     ``screen_mission``: each rule runs once. Screened a second time (the mission and its meta passed on), its IMU was

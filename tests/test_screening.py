@@ -3094,6 +3094,33 @@ def test_filler_rows_with_their_stamps_zeroed_too_are_filler_not_stamps_out_of_o
     assert any("50 imu sample(s) refused (50 all-zero IMU row" in w and "line(s) 10002, 10003" in w for w in said)
 
 
+def test_the_gap_zeroed_filler_leaves_is_filler_removed_not_samples_lost(akit_dir, tmp_path):
+    """Trajectory1 as a column map and as an A-KIT folder with 21 IMU rows (0.21 s at t = 100 s) written whole as zeros,
+    stamp included: the rows were refused as filler, and the gap they leave was warned about again as 'a gap of 0.21 s
+    in the stamps (21 periods, a whole number: 21 samples lost ...)' and counted as doubted. Filler taken out is no
+    loss: said once, as filler refused. Rows deleted beside the filler are still samples lost, and only they."""
+    from graphnav.core.screening import IMU_FILLER, IMU_GAP
+    from graphnav.missions import load_akit, load_mission
+    from tests.test_generic_csv import _akit_as_column_map
+
+    def deleted_after(edit, n):
+        return lambda lines: (lambda out: out[:10022] + out[10022 + n:])(edit(lines))
+    for n in (0, 30):
+        edit = deleted_after(_zero_imu_rows(range(10000, 10021), stamps=False), n)
+        data, config = _akit_as_column_map(akit_dir, tmp_path / f"map{n}", imu_edit=edit)
+        folder = _copy_trajectory(akit_dir, tmp_path / f"akit{n}")
+        _edit_lines(folder / "IMU_trajectory1.csv", edit)
+        for m, said in (_quiet_load(load_mission, data, config), _quiet_load(load_akit, folder)):
+            imu = m.meta["streams"]["imu"]
+            assert imu["refused"] == {IMU_FILLER: 21} and len(m.imu.t) == 40000 - 21 - n
+            lost = [w for w in said if "in the stamps" in w]
+            if n == 0:
+                assert not lost and IMU_GAP not in imu.get("doubted", {}), (lost, imu.get("doubted"))
+            else:
+                assert imu["doubted"][IMU_GAP] == 1 and len(lost) == 1
+                assert "(51 periods, a whole number: 30 samples lost beyond the 21 row(s) of filler" in lost[0]
+
+
 def test_nan_imu_rows_over_700_s_are_the_imu_stopping_as_deleted_rows_and_filler_are(akit_dir, tmp_path):
     """Trajectory1 as a column map with the IMU's second half 700 s later: the rows between deleted, or written at
     1 Hz as all-zero filler, were refused as the IMU stopping; written at 1 Hz with NaN values they loaded, the 700 s

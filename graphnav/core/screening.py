@@ -1304,8 +1304,8 @@ NUDGED_COPY_STEP_SHARE = 0.5
 
 
 def stamp_order(t: np.ndarray, rows: np.ndarray, lines: np.ndarray, source: str, field: str, repair: bool,
-                meta: dict | None = None, stream: str = "", imu_rate_hz: float | None = None
-                ) -> tuple[np.ndarray, dict[str, int], np.ndarray]:
+                meta: dict | None = None, stream: str = "", imu_rate_hz: float | None = None,
+                filler_lines: np.ndarray | None = None) -> tuple[np.ndarray, dict[str, int], np.ndarray]:
     """``(indices of the rows kept, in time order; {reason: rows dropped}; their stamps, s)`` of a file's stamps
     ``t`` (N,) s and its rows as read ``rows`` (N,k), ``lines`` their file lines.
 
@@ -1321,7 +1321,8 @@ def stamp_order(t: np.ndarray, rows: np.ndarray, lines: np.ndarray, source: str,
     counts, :func:`~graphnav.core.imu_timing.samples_sharing_a_stamp`), not a copy; where every row sharing a stamp
     is such a row but :data:`STUCK_DIFFER_SHARE` (a stuck sensor, or each row written twice: nothing tells) those
     kept are warned about and counted as doubted (:data:`STUCK_REPEATS`); a step of its clock or a gap is
-    warned about and counted (:func:`say_imu_stamp_steps`); ``imu_rate_hz``, the configured rate (Hz), tells an IMU
+    warned about and counted (:func:`say_imu_stamp_steps`; not the gap left by the filler taken out before at the file
+    ``filler_lines``, :func:`zeroed_filler`, refused as filler); ``imu_rate_hz``, the configured rate (Hz), tells an IMU
     slower than its logger's clock from one losing samples where the stamps cannot. The rest must increase strictly;
     else, with ``repair``, the rows are sorted and those whose stamp repeats an earlier one dropped (the first kept),
     with a warning; without it a DataError naming ``source``, the line, ``field`` and the way out (``--repair-stamps``):
@@ -1356,7 +1357,7 @@ def stamp_order(t: np.ndarray, rows: np.ndarray, lines: np.ndarray, source: str,
     step = np.diff(t[kept])
     bad = np.flatnonzero(step <= 0)
     if not bad.size:
-        _say_steps(read, t, kept, lines, source, field, meta, stream)
+        _say_steps(read, t, kept, lines, source, field, meta, stream, filler_lines)
         return kept, dropped, t[kept]
     packets = stamped_in_packets(t[kept])
     if not repair:
@@ -1369,7 +1370,7 @@ def stamp_order(t: np.ndarray, rows: np.ndarray, lines: np.ndarray, source: str,
     first = np.concatenate([[True], np.diff(t[kept]) > 0])
     warnings.warn(f"{source}: {int((~first).sum())} duplicated and {int((step < 0).sum())} out-of-order "
                   f"stamp(s) repaired (duplicates dropped, first kept; rows sorted){packets}", stacklevel=3)
-    _say_steps(read, t, kept[first], lines, source, field, meta, stream)
+    _say_steps(read, t, kept[first], lines, source, field, meta, stream, filler_lines)
     return kept[first], {**dropped, REPAIRED_STAMP: int((~first).sum())}, t[kept[first]]
 
 
@@ -1650,16 +1651,17 @@ class NudgedCopies:
 
 
 def _say_steps(read: np.ndarray, t: np.ndarray, kept_rows: np.ndarray, lines: np.ndarray, source: str, field: str,
-               meta: dict | None, stream: str) -> None:
+               meta: dict | None, stream: str, filler_lines: np.ndarray | None = None) -> None:
     """:func:`say_imu_stamp_steps` of a file's ``kept_rows`` (indices, in time order) of its IMU stamps ``read``
     (s, as read) and ``t`` (s, as kept, restamped or not), for :func:`stamp_order`'s caller: on the stamps as read
-    where they never decrease, else (a repair sorted restamped rows) as kept. Another ``stream``'s:
-    :func:`say_close_samples`."""
+    where they never decrease, else (a repair sorted restamped rows) as kept; ``filler_lines``: the file lines of the
+    filler taken out before (:func:`zeroed_filler`). Another ``stream``'s: :func:`say_close_samples`."""
     if stream != "imu":
         say_close_samples(t[kept_rows], lines[kept_rows], source, stream, meta)
         return
     as_read = read[kept_rows] if np.all(np.diff(read[kept_rows]) >= 0) else t[kept_rows]
-    say_imu_stamp_steps(as_read, t[kept_rows], source, field, meta, lines=lines[kept_rows], stacklevel=4)
+    say_imu_stamp_steps(as_read, t[kept_rows], source, field, meta, lines=lines[kept_rows], stacklevel=4,
+                        filler=filler_between(lines[kept_rows], filler_lines))
 
 
 #: Reasons under which an IMU's samples read after a step of its stamps are counted as doubted (:func:`stamp_order`).
@@ -1668,7 +1670,8 @@ IMU_GAP = "stamped after a gap in the IMU data (whole periods: samples lost, bri
 
 
 def say_imu_stamp_steps(read: np.ndarray, kept: np.ndarray, source: str, field: str, meta: dict | None,
-                        lines: np.ndarray | None = None, where: list[str] | None = None, stacklevel: int = 2) -> None:
+                        lines: np.ndarray | None = None, where: list[str] | None = None, stacklevel: int = 2,
+                        filler: np.ndarray | None = None) -> None:
     """Warn about the steps of an IMU's stamps ``read`` (s, as read, never decreasing; ``kept``: as the reader keeps
     them, restamped or not, s) off a line at its period (:func:`~graphnav.core.imu_timing.stamp_steps`), each kind
     once, and count the sample after each as doubted in ``meta``: a step no whole number of periods long is the IMU
@@ -1676,23 +1679,38 @@ def say_imu_stamp_steps(read: np.ndarray, kept: np.ndarray, source: str, field: 
     (or the clock stepping whole periods: the stamps cannot tell); one sample lost is neither. The samples keep their
     stamps. Every reader's IMU stamps go through it: ``source`` and ``field`` name the file (a bag's topic) and the
     stamp field, each sample is named as :func:`located` names it (``lines``: a file's lines; ``where``: a bag's
-    messages with their time); ``stacklevel``: the caller's own."""
+    messages with their time); ``stacklevel``: the caller's own. ``filler`` (N-1,) int: the rows of a logger's filler
+    with their stamps zeroed taken out between each sample and the next (:func:`filler_between`): a gap they leave
+    alone is no samples lost (its rows were refused as filler, and said so), only what they leave beyond it."""
     period = imu_step_stats(np.diff(kept))[0]
     at, jump, lost = stamp_steps(read, period)
+    taken = np.zeros(at.size, int) if filler is None else np.asarray(filler, int)[at]
+    lost = np.where((taken > 0) & (lost > 0), np.maximum(lost - taken, 1), lost)
     for hit, reason in ((lost == 0, CLOCK_STEP), (lost >= GAP_WARN_SAMPLES, IMU_GAP)):
         if not np.any(hit):
             continue
-        i, size, m = at[hit][0], jump[hit][0], lost[hit][0]
+        i, size, m, k = at[hit][0], jump[hit][0], lost[hit][0], taken[hit][0]
+        filler_rows = f" beyond the {k} row(s) of filler taken out there" if k else ""
         what = (f"the IMU clock steps {1e3 * size:+.4g} ms off its period ({size / period:+.3g} periods: no whole "
                 "number of them, so no samples lost explain it)" if reason == CLOCK_STEP else
-                f"a gap of {size:.4g} s in the stamps ({m} periods, a whole number: {m} samples lost, or the clock "
-                "stepped as many periods; the stamps cannot tell), which the run bridges")
+                f"a gap of {size:.4g} s in the stamps ({m + k} periods, a whole number: {m} samples lost{filler_rows}, "
+                "or the clock stepped as many periods; the stamps cannot tell), which the run bridges")
         warnings.warn(f"imu: {source}, {located(at[hit] + 1, lines, where, first=True)}, field '{field}': {what}, "
                       f"from t = {float(read[i])!r} to {float(read[i + 1])!r} s ({int(hit.sum())} such, at "
                       f"{located(at[hit] + 1, lines, where)}); the samples keep their stamps", RuntimeWarning,
                       stacklevel=stacklevel + 1)
         if meta is not None:
             count_doubted(meta, "imu", reason, int(hit.sum()))
+
+
+def filler_between(order: np.ndarray, taken: np.ndarray | None) -> np.ndarray | None:
+    """(N-1,) int: how many of the rows ``taken`` out (positions in the file: lines, a topic's message indexes; a
+    logger's filler with its stamps zeroed, :func:`zeroed_filler`) lie between each row at ``order`` (N,) and the next
+    (file positions, in time order; none where they go back); None without any taken."""
+    if taken is None or not len(taken):
+        return None
+    taken, order = np.sort(np.asarray(taken, int)), np.asarray(order, int)
+    return np.maximum(np.searchsorted(taken, order[1:]) - np.searchsorted(taken, order[:-1]), 0)
 
 
 def first_lines(lines: np.ndarray) -> str:

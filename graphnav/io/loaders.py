@@ -320,12 +320,14 @@ def read_csv(path: str | Path, columns: tuple[str, ...], *, nan_ok: tuple[str, .
         problems += [(int(line_no[i]), name, f"value {data[i, j]} is not finite") for i in bad]
     if problems:
         _raise_problems(source, sorted(problems))
+    filler_lines = None
     if meta is not None:
         # an IMU's filler rows whose stamp is zeroed too hold no time: out before the stamps are judged
         zeroed = (zeroed_filler(data[:, 0], data[:, 1:7], source, line_no) if stream == "imu" and len(columns) == 7
                   else np.zeros(len(data), bool))
         count_read(meta, stream, data[~zeroed, 0], source, shown_rate_hz(stream, data[~zeroed, 0]))
         refuse_zeroed_filler(meta, source, line_no[zeroed])
+        filler_lines = line_no[zeroed]
         data, line_no = data[~zeroed], line_no[~zeroed]
         bad = stamp_outliers(data[:, 0])
         if bad.any():
@@ -333,7 +335,7 @@ def read_csv(path: str | Path, columns: tuple[str, ...], *, nan_ok: tuple[str, .
             data, line_no = data[~bad], line_no[~bad]
             _record_kept(meta, stream, data[:, 0])
     kept, dropped, t = stamp_order(data[:, 0], data, line_no, source, columns[0], repair, meta, stream,
-                                   imu_rate_hz)
+                                   imu_rate_hz, filler_lines=filler_lines)
     for reason, n in dropped.items() if meta is not None else ():
         count_refused(meta, stream, reason, n)
     data = data[kept]
