@@ -1423,6 +1423,31 @@ def test_a_bag_loaded_then_screened_has_its_imu_screened_once(tmp_path, monkeypa
     assert calls["plausible"] == 2 and len(twice.imu.t) == 1998 and np.abs(twice.imu.f_b).max() < 100.0
 
 
+def test_screening_a_mission_twice_counts_each_refusal_once(tmp_path):
+    """A bag read with one IMU row beyond full scale, screened twice (the mission read passed twice, or the mission
+    screened passed again): the second pass counted the refusal again in the meta they all shared ('f_b beyond
+    156.906 m/s^2': 2, in the first result's meta too). Now the mission read is left as it was, each result counts
+    it once, and a screened mission is returned as it is."""
+    import copy
+    import warnings
+
+    from graphnav.io import loaders
+    mission = simulate_mission(duration_s=20.0, seed=5)
+    mission.imu.f_b[1200, 0] = 500.0
+    path = bag_driver.write_driver_bag(mission, tmp_path / "bag", leak_sensor=False, housing_sensor=False)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        raw = bags.load_bag(path, mission.config)
+        read = copy.deepcopy(raw.meta["streams"])
+        first = loaders.screen_mission(raw)
+        second = loaders.screen_mission(raw)
+        again = loaders.screen_mission(first)
+    assert raw.meta["streams"] == read
+    for m in (first, second, again):
+        assert m.meta["streams"]["imu"]["refused"] == {"f_b beyond 156.906 m/s^2": 1} and len(m.imu.t) == len(raw.imu.t) - 1
+    assert again is first
+
+
 def test_filler_with_zeroed_stamps_beside_a_message_published_twice_keeps_the_header_stamps(tmp_path):
     """21 IMU messages of filler with their header stamps zeroed and, elsewhere, one message published again at its
     header stamp 1 ms later: each alone leaves the topic on its header stamps (the filler taken out, the copy dropped);

@@ -97,6 +97,7 @@ the one-call ``load_mission`` are :mod:`graphnav.missions`').
 """
 from __future__ import annotations
 
+import copy
 import csv
 import dataclasses
 import io
@@ -1236,10 +1237,12 @@ def screen_mission(mission: Mission) -> Mission:
     are marked invalid; each counted with its reason in ``meta["streams"]`` and warned about; DVL outages are
     warned about; more than half of a stream refused is a DataError. The IMU is screened once: a reader that
     screened it (``meta["imu_screened"]``), or the rows holding no measurement (``meta["imu_unmeasured_screened"]``,
-    a bag's), is not screened for it again, nor is a mission this returned (the one passed in is not marked: screened
-    again, with its meta shared, its IMU is). Returns the screened mission (the same one when nothing was refused and
-    the IMU was screened before)."""
-    meta = mission.meta
+    a bag's), is not screened for it again. The mission passed in is left as it is (its meta copied before anything is
+    counted: screened twice, each count was made twice in the meta both shared); the mission returned is marked
+    screened (``meta["screened"]``), and screening it again returns it as it is."""
+    if mission.meta.get("screened"):
+        return mission
+    meta = copy.deepcopy(mission.meta)
     cfg = mission.config
     for name, stream in (("imu", mission.imu), ("dvl", mission.dvl), ("depth", mission.depth), ("gt", mission.gt)):
         if stream is not None and not meta.get("streams", {}).get(name, {}).get("read"):
@@ -1290,14 +1293,8 @@ def screen_mission(mission: Mission) -> Mission:
         gt = _kept(meta, "gt", gt, bad)
     speed_reasons = [r for r in masks if r != NO_BOTTOM_LOCK]      # what a velocity unit changes
     check_refused_fraction(meta, advice=_declared_unit_advice(meta, imu, dvl.t, v, cfg, speed_reasons))
-    if not screened and all(a is b for a, b in zip((imu, dvl, depth, gt),
-                                                   (mission.imu, mission.dvl, mission.depth, mission.gt))):
-        return mission
-    # once: the mission returned keeps its IMU as screened, not the one passed in (a bag's read by load_bag, screened
-    # twice, or again with another configuration by dataclasses.replace, which shares its meta: its IMU was kept
-    # unscreened, a 500 m/s^2 row used without a word)
     return dataclasses.replace(mission, imu=imu, dvl=dvl, depth=depth, gt=gt,
-                               meta={**meta, "imu_screened": True} if screened else meta)
+                               meta={**meta, "imu_screened": True, "screened": True})
 
 
 def _declared_unit_advice(meta: dict, imu, t: np.ndarray, v: np.ndarray, cfg: SensorConfig,
