@@ -3253,16 +3253,18 @@ def test_a_nan_run_split_by_one_row_beyond_full_scale_is_one_gap_naming_its_line
     """Trajectory1 as a column map with 700 s at 1 Hz inside it of NaN rows but one, 350 s in, beyond full scale
     (900 m/s^2): read as two runs of 350 s, each bridged, and the row then refused for its range; the 700 s gap was
     refused only by the run (``smooth``), naming the file and the field 't' but no line. A lone row between two runs
-    without a measurement bridges nothing: the gap is the IMU stopping, named by the line after it, at read."""
+    without a measurement bridges nothing: the gap is the IMU stopping, named by the line after it, at read. The rows
+    without a measurement are counted without the lone row, which holds one (it was counted among them: '699 IMU
+    row(s) without a measurement (...; 1 alone between them ...)')."""
     from graphnav.core.screening import imu_unmeasured
     from graphnav.missions import load_mission
     from tests.test_generic_csv import _akit_as_column_map
 
     later = _700_s_later(lambda k: "900,0,-9.8,0,0,0" if k == 350 else ",".join(["nan"] * 6))
     data, config = _akit_as_column_map(akit_dir, tmp_path / "lone", imu_edit=later)
-    with pytest.raises(DataError, match=r"imu\.csv, line 20701: IMU gap left by 699 IMU row\(s\) without a "
-                                        r"measurement \(NaN or infinite values; 1 alone between them, which bridges "
-                                        r"nothing\) of 700\.01 s after t = 199\.995 s is longer than the 600 s"):
+    with pytest.raises(DataError, match=r"imu\.csv, line 20701: IMU gap left by 698 IMU row\(s\) without a "
+                                        r"measurement \(NaN or infinite values\) and 1 alone between them, which "
+                                        r"bridges nothing of 700\.01 s after t = 199\.995 s is longer than the 600 s"):
         _quiet_load(load_mission, data, config)
     # two rows between the runs are two samples: each run bridged alone, as before
     t = np.arange(10.0) * 100.0
@@ -3270,7 +3272,7 @@ def test_a_nan_run_split_by_one_row_beyond_full_scale_is_one_gap_naming_its_line
     f_b[[1, 2, 3, 6, 7]] = np.nan
     assert imu_unmeasured(t, f_b, omega_b, source="imu.csv")["empty or NaN in 'f_b x'"].sum() == 5
     f_b[5] = np.nan                         # row 4 alone between rows 1-3 and 5-7: 800 s
-    with pytest.raises(DataError, match=r"line 10: IMU gap left by 7 IMU row\(s\) .*1 alone between them.* of 800 s"):
+    with pytest.raises(DataError, match=r"line 10: IMU gap left by 6 IMU row\(s\) .*\) and 1 alone between them.* of 800 s"):
         imu_unmeasured(t, f_b, omega_b, source="imu.csv", lines=np.arange(10) + 2)
 
 

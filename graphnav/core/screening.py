@@ -822,16 +822,17 @@ def _left_by(rows: int, zeros: int, dead: int, lone: int = 0, row: str = "IMU ro
     """What a run of ``rows`` IMU rows without a measurement held, ``zeros`` of them a logger's filler and ``dead``
     a dead accelerometer's, ``lone`` of them a row alone between two such runs (:func:`_lone_rows`), the others NaN or
     infinite: each kind named, so the user looks for what the file holds (a run of filler and dead-accelerometer rows
-    was said to hold NaN). ``row``: what the file calls a row (a bag's: a message of its topic)."""
+    was said to hold NaN); the rows alone hold a measurement, and are named beside them, not counted among them.
+    ``row``: what the file calls a row (a bag's: a message of its topic)."""
+    rows -= lone
+    alone = f" and {lone} alone between them, which bridge{'s' * (lone == 1)} nothing" if lone else ""
     if zeros == rows:
-        return f"{rows} all-zero {row} (a logger's filler)"
+        return f"{rows} all-zero {row} (a logger's filler){alone}"
     kinds = [f"{zeros} all-zero: a logger's filler"] * bool(zeros) + [
         f"{dead} of a dead accelerometer: its three values 0 beside a live gyro"] * bool(dead)
-    if rows > zeros + dead + lone:
+    if rows > zeros + dead:
         kinds.append("the others NaN or infinite" if kinds else "NaN or infinite values")
-    if lone:
-        kinds.append(f"{lone} alone between them, which bridge{'s' * (lone == 1)} nothing")
-    return f"{rows} {row} without a measurement ({'; '.join(kinds)})"
+    return f"{rows} {row} without a measurement ({'; '.join(kinds)}){alone}"
 
 
 def _check_not_all_filler(filler: np.ndarray, source: str, lines: np.ndarray | None) -> None:
