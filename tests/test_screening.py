@@ -3121,6 +3121,34 @@ def test_the_gap_zeroed_filler_leaves_is_filler_removed_not_samples_lost(akit_di
                 assert "(51 periods, a whole number: 30 samples lost beyond the 21 row(s) of filler" in lost[0]
 
 
+def test_a_stall_stamped_0_after_zeroed_filler_is_told_to_be_deleted_not_sorted(akit_dir, tmp_path):
+    """Trajectory1 with 21 IMU rows of filler stamped 0 (at t = 100 s), then 10 rows repeating the last reading, stamped
+    0 too: refused as 'time stamp out of order (99.99249981249532 s then 0.0 s); 1 such line(s); pass repair=True',
+    advice that sorts those rows to the file's start. The rows stamped 0 are named, all ten, as stamps zeroed beside
+    the filler, with advice that works: deleting them, the file is read (the filler refused, its gap bridged)."""
+    from graphnav.core.screening import IMU_FILLER
+    from graphnav.missions import load_akit, load_mission
+    from tests.test_generic_csv import _akit_as_column_map
+
+    def stalled(lines):
+        lines = _zero_imu_rows(range(10000, 10021), stamps=False)(lines)
+        return lines[:10022] + ["0," + lines[10000].split(",", 1)[1]] * 10 + lines[10032:]
+    told = (r"line 10023, field 'Time \[s\]': time stamp out of order \(99\.99249981249532 s then 0\.0 s\); 10 row\(s\) "
+            r"holding values stamped 0 s after later stamps, at line\(s\) 10023, 10024, .*10032: their stamps were "
+            r"zeroed, as the 21 all-zero rows of a logger's filler taken out at line\(s\) 10002, .* are.* delete those "
+            r"rows or write their stamps")
+    data, config = _akit_as_column_map(akit_dir, tmp_path / "map", imu_edit=stalled)
+    folder = _copy_trajectory(akit_dir, tmp_path)
+    _edit_lines(folder / "IMU_trajectory1.csv", stalled)
+    for load, args in ((load_mission, (data, config)), (load_akit, (folder,))):
+        with pytest.raises(DataError, match=told), warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            load(*args)
+    _edit_lines(folder / "IMU_trajectory1.csv", lambda lines: lines[:10022] + lines[10032:])
+    m, _ = _quiet_load(load_akit, folder)
+    assert m.meta["streams"]["imu"]["refused"] == {IMU_FILLER: 21} and len(m.imu.t) == 40000 - 31
+
+
 def test_nan_imu_rows_over_700_s_are_the_imu_stopping_as_deleted_rows_and_filler_are(akit_dir, tmp_path):
     """Trajectory1 as a column map with the IMU's second half 700 s later: the rows between deleted, or written at
     1 Hz as all-zero filler, were refused as the IMU stopping; written at 1 Hz with NaN values they loaded, the 700 s

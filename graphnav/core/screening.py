@@ -1364,15 +1364,37 @@ def stamp_order(t: np.ndarray, rows: np.ndarray, lines: np.ndarray, source: str,
     if not repair:
         i = kept[bad[0] + 1]
         kind = "duplicated" if step[bad[0]] == 0 else "out of order"
-        raise DataError(f"time stamp {kind} ({float(t[kept[bad[0]]])!r} s then {float(t[i])!r} s); {bad.size} such "
-                        f"line(s){packets}; pass repair=True (command line: --repair-stamps) to drop duplicates and "
-                        "sort", source, int(lines[i]), field)
+        raise DataError(f"time stamp {kind} ({float(t[kept[bad[0]]])!r} s then {float(t[i])!r} s); "
+                        f"{_zeroed_stamps(t, lines, filler_lines) or _repair_advice(bad.size, packets)}",
+                        source, int(lines[i]), field)
     kept = kept[np.argsort(t[kept], kind="stable")]
     first = np.concatenate([[True], np.diff(t[kept]) > 0])
     warnings.warn(f"{source}: {int((~first).sum())} duplicated and {int((step < 0).sum())} out-of-order "
                   f"stamp(s) repaired (duplicates dropped, first kept; rows sorted){packets}", stacklevel=3)
     _say_steps(read, t, kept[first], lines, source, field, meta, stream, filler_lines)
     return kept[first], {**dropped, REPAIRED_STAMP: int((~first).sum())}, t[kept[first]]
+
+
+def _repair_advice(rows: int, packets: str) -> str:
+    """The way out of stamps out of order that sorting them is: ``rows`` such lines, ``packets`` a note of their
+    being stamped in packets."""
+    return (f"{rows} such line(s){packets}; pass repair=True (command line: --repair-stamps) to drop duplicates and "
+            "sort")
+
+
+def _zeroed_stamps(t: np.ndarray, lines: np.ndarray, filler_lines: np.ndarray | None) -> str:
+    """What to do with the rows stamped exactly 0 after later stamps ``t`` (s, in file order, ``lines`` their file
+    lines) or ``""`` when none: a stamp zeroed as a logger's filler's is (``filler_lines``: the lines of the filler
+    taken out, :func:`zeroed_filler`) on rows holding values (a stalled sensor's repeats) is no time. Sorting them
+    (``repair``) would put them at the file's start, so the advice is to delete or stamp them."""
+    zero = np.flatnonzero((t[1:] == 0.0) & (np.maximum.accumulate(t)[:-1] > 0.0)) + 1
+    if not zero.size:
+        return ""
+    beside = (f", as the {len(filler_lines)} all-zero rows of a logger's filler taken out at line(s) "
+              f"{first_lines(np.asarray(filler_lines))} are" if filler_lines is not None and len(filler_lines) else "")
+    return (f"{zero.size} row(s) holding values stamped 0 s after later stamps, at line(s) {first_lines(lines[zero])}: "
+            f"their stamps were zeroed{beside}, and a zeroed stamp is no time (repair=True would sort them to the "
+            "file's start); delete those rows or write their stamps")
 
 
 def exact_copies(t: np.ndarray, rows: np.ndarray) -> tuple[np.ndarray, bool]:
