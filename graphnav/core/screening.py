@@ -196,15 +196,23 @@ def stamp_jumps(t: float, previous: float) -> str | None:
     stream, s), ahead of it or behind it: more than :data:`MAX_STAMP_GAP_S` (days to years: a clock reset or a
     corrupted stamp; a stamp days in the past is as far off its stream's clock as one days ahead), or None."""
     if math.isfinite(previous) and abs(t - previous) > MAX_STAMP_GAP_S:
-        return (f"stamp jumps {abs(t - previous):.6g} s {'ahead of' if t > previous else 'behind'} the stream (more "
+        return (f"stamp jumps {abs(t - previous):.6g} s {jump_direction(previous, t, 'the stream')} (more "
                 f"than {MAX_STAMP_GAP_S:g} s)")
     return None
+
+
+def jump_direction(before: float, after: float, of: str | None = None) -> str:
+    """Which way the stamp ``after`` (s) is off ``before`` (s), in the words every message about a stamp off its clock
+    uses: "ahead" or "back", or off ``of`` (what it is off: "the stream"): "ahead of ..." or "behind ..."."""
+    if of is None:
+        return "ahead" if after > before else "back"
+    return f"{'ahead of' if after > before else 'behind'} {of}"
 
 
 def clock_jump_words(before: float, after: float) -> str:
     """How far and which way a clock jumped from the stamp ``before`` to ``after`` (s): e.g. "172800 s ahead",
     "1.7e+09 s back"."""
-    return f"{abs(after - before):.6g} s {'ahead' if after > before else 'back'}"
+    return f"{abs(after - before):.6g} s {jump_direction(before, after)}"
 
 
 def check_stamps(t: np.ndarray, source: str, field: str = "t") -> None:
@@ -2158,7 +2166,7 @@ class StreamScreen:
             others = ("the IMU's", "the IMU went on") if refused_stream != "imu" else ("the other streams'",
                                                                                        "they went on")
             return (f"{n} of {received.get(refused_stream, n)} {refused_stream} samples are stamped more than "
-                    f"{MAX_STAMP_GAP_S:g} s {'ahead of' if after > before else 'behind'} {others[0]} (by "
+                    f"{MAX_STAMP_GAP_S:g} s {jump_direction(before, after, others[0])} (by "
                     f"{abs(after - before):.6g} s at t = {before:.3f} s) "
                     f"while {others[1]}: the {refused_stream} stamps are not on the clock the other streams "
                     "share; correct its stamps (their offset) or its clock")

@@ -98,7 +98,6 @@ the one-call ``load_mission`` are :mod:`graphnav.missions`').
 from __future__ import annotations
 
 import copy
-import csv
 import dataclasses
 import io
 import re
@@ -361,7 +360,7 @@ def _raise_bad_lines(source: str, body: list[str], line_no: np.ndarray, columns)
     problems = []
     for n, s in zip(line_no, body):
         fields = s.split(",")
-        quoted = next(csv.reader([s])) if '"' in s and len(fields) != len(columns) else fields
+        quoted = _quoted_cells(s) if '"' in s and len(fields) != len(columns) else fields
         fields = quoted if len(quoted) == len(columns) else fields
         if len(fields) != len(columns):
             what = "truncated line" if len(fields) < len(columns) else "too many fields"
@@ -375,12 +374,29 @@ def _raise_bad_lines(source: str, body: list[str], line_no: np.ndarray, columns)
             try:
                 float(f)
             except ValueError:
-                comma = (f", {QUOTED_DECIMAL_COMMA} (write decimal points: an A-KIT file's separator is ',')"
-                         if decimal_comma_number(f.strip()) is not None else "")
-                problems.append((int(n), name, f"not a number: {f.strip()!r}{comma}"))
+                inner = f.strip()[1:-1] if len(f.strip()) > 1 and f.strip()[0] == f.strip()[-1] == '"' else None
+                comma = inner is not None and decimal_comma_number(inner.strip()) is not None
+                told = f", {QUOTED_DECIMAL_COMMA} (write decimal points: an A-KIT file's separator is ',')" * comma
+                problems.append((int(n), name, f"not a number: {(inner.strip() if comma else f.strip())!r}{told}"))
     if not problems:  # loadtxt failed on something the checks above did not catch
         raise DataError("cannot parse the file as numbers", source)
     _raise_problems(source, problems)
+
+
+def _quoted_cells(line: str) -> list[str]:
+    """The cells of a ','-separated ``line``, a separator inside double quotes part of its cell and the quotes kept:
+    a quoted cell is no number an A-KIT file holds (``"0.1"`` beside ``"0,2"`` on one line was read as 0.1, and
+    refused alone)."""
+    cells, cell, inside = [], [], False
+    for ch in line:
+        if ch == '"':
+            inside = not inside
+        if ch == "," and not inside:
+            cells.append("".join(cell))
+            cell = []
+        else:
+            cell.append(ch)
+    return cells + ["".join(cell)]
 
 
 def _raise_problems(source: str, problems: list[tuple[int, str, str]]) -> None:
