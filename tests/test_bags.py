@@ -1395,19 +1395,19 @@ def test_a_bag_loaded_then_screened_has_its_imu_screened_once(tmp_path, monkeypa
     screened once keeps its IMU as screened, and the mission read, screened again, is screened again (marked in the
     meta both share, its IMU was kept unscreened)."""
     from graphnav.core import screening
-    from graphnav.io import loaders
+    from graphnav.io import loaders, screened
     calls = {"gaps": 0, "plausible": 0}
-    gaps, plausible = screening.check_filler_gaps, loaders.imu_implausible
+    gaps, plausible = screening.check_filler_gaps, screened.imu_implausible
     monkeypatch.setattr(screening, "check_filler_gaps", lambda *a, **k: calls.update(gaps=calls["gaps"] + 1) or
                         gaps(*a, **k))
-    monkeypatch.setattr(loaders, "imu_implausible", lambda *a, **k: calls.update(plausible=calls["plausible"] + 1) or
+    monkeypatch.setattr(screened, "imu_implausible", lambda *a, **k: calls.update(plausible=calls["plausible"] + 1) or
                         plausible(*a, **k))
     mission = simulate_mission(duration_s=20.0, seed=5)
     mission.imu.f_b[[300, 900]] = 0.0
     mission.imu.f_b[1200, 0] = 500.0
     path = bag_driver.write_driver_bag(mission, tmp_path / "bag", leak_sensor=False, housing_sensor=False)
     with pytest.warns(RuntimeWarning):
-        raw = bags.load_bag(path, mission.config)
+        raw = bags.load_bag(path, mission.config, screen=False)
         assert calls == {"gaps": 1, "plausible": 0}
         m = loaders.screen_mission(raw)
     assert calls == {"gaps": 1, "plausible": 1}
@@ -1423,29 +1423,26 @@ def test_a_bag_loaded_then_screened_has_its_imu_screened_once(tmp_path, monkeypa
     assert calls["plausible"] == 2 and len(twice.imu.t) == 1998 and np.abs(twice.imu.f_b).max() < 100.0
 
 
-def test_screening_a_mission_twice_counts_each_refusal_once(tmp_path):
-    """A bag read with one IMU row beyond full scale, screened twice (the mission read passed twice, or the mission
-    screened passed again): the second pass counted the refusal again in the meta they all shared ('f_b beyond
-    156.906 m/s^2': 2, in the first result's meta too). Now the mission read is left as it was, each result counts
-    it once, and a screened mission is returned as it is."""
-    import copy
+def test_load_bag_alone_screens_the_bag_as_smooth_does(tmp_path):
+    """``graphnav.io.load_bag`` alone (the public reader) never ran the full-scale and spike rules ``graphnav smooth``
+    runs on a bag (``read_mission``): an IMU message of 500 m/s^2 was kept without a word.
+    It screens the bag as every reader's rows are, each refusal once (``smooth``'s reading screens nothing again)."""
     import warnings
 
-    from graphnav.io import loaders
+    from graphnav.io.loaders import read_mission
     mission = simulate_mission(duration_s=20.0, seed=5)
     mission.imu.f_b[1200, 0] = 500.0
     path = bag_driver.write_driver_bag(mission, tmp_path / "bag", leak_sensor=False, housing_sensor=False)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        m = bags.load_bag(path, mission.config)
+    assert np.abs(m.imu.f_b).max() < 100.0 and m.meta["streams"]["imu"]["refused"] == {"f_b beyond 156.906 m/s^2": 1}
+    assert any("f_b beyond 156.906 m/s^2" in str(w.message) for w in caught)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        raw = bags.load_bag(path, mission.config)
-        read = copy.deepcopy(raw.meta["streams"])
-        first = loaders.screen_mission(raw)
-        second = loaders.screen_mission(raw)
-        again = loaders.screen_mission(first)
-    assert raw.meta["streams"] == read
-    for m in (first, second, again):
-        assert m.meta["streams"]["imu"]["refused"] == {"f_b beyond 156.906 m/s^2": 1} and len(m.imu.t) == len(raw.imu.t) - 1
-    assert again is first
+        read = read_mission(path)
+    assert read.meta["streams"]["imu"]["refused"] == {"f_b beyond 156.906 m/s^2": 1}
+    np.testing.assert_array_equal(read.imu.f_b, m.imu.f_b)
 
 
 def test_filler_with_zeroed_stamps_beside_a_message_published_twice_keeps_the_header_stamps(tmp_path):

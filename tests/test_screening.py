@@ -3149,6 +3149,30 @@ def test_a_stall_stamped_0_after_zeroed_filler_is_told_to_be_deleted_not_sorted(
     assert m.meta["streams"]["imu"]["refused"] == {IMU_FILLER: 21} and len(m.imu.t) == 40000 - 31
 
 
+def test_screening_a_mission_twice_counts_each_refusal_once():
+    """A mission with one IMU row beyond full scale, screened twice (the mission passed twice, or the mission screened
+    passed again): the second pass counted the refusal again in the meta they all shared ('f_b beyond 156.906
+    m/s^2': 2, in the first result's meta too). Now the mission passed in is left as it was, each result counts it
+    once, and a screened mission is returned as it is."""
+    import copy
+
+    from graphnav.io.loaders import screen_mission
+    from graphnav.sim.simulate import simulate_mission
+    mission = simulate_mission(duration_s=20.0, seed=5)
+    mission.imu.f_b[1200, 0] = 500.0
+    before = copy.deepcopy(mission.meta)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        first = screen_mission(mission)
+        second = screen_mission(mission)
+        again = screen_mission(first)
+    assert mission.meta.keys() == before.keys() and mission.meta.get("streams") == before.get("streams")
+    for m in (first, second, again):
+        assert m.meta["streams"]["imu"]["refused"] == {"f_b beyond 156.906 m/s^2": 1}
+        assert len(m.imu.t) == len(mission.imu.t) - 1
+    assert again is first
+
+
 def test_nan_imu_rows_over_700_s_are_the_imu_stopping_as_deleted_rows_and_filler_are(akit_dir, tmp_path):
     """Trajectory1 as a column map with the IMU's second half 700 s later: the rows between deleted, or written at
     1 Hz as all-zero filler, were refused as the IMU stopping; written at 1 Hz with NaN values they loaded, the 700 s
