@@ -3133,10 +3133,10 @@ def test_a_stall_stamped_0_after_zeroed_filler_is_told_to_be_deleted_not_sorted(
     def stalled(lines):
         lines = _zero_imu_rows(range(10000, 10021), stamps=False)(lines)
         return lines[:10022] + ["0," + lines[10000].split(",", 1)[1]] * 10 + lines[10032:]
-    told = (r"line 10023, field 'Time \[s\]': time stamp out of order \(99\.99249981249532 s then 0\.0 s\); 10 row\(s\) "
-            r"holding values stamped 0 s after later stamps, at line\(s\) 10023, 10024, .*10032: their stamps were "
-            r"zeroed, as the 21 all-zero rows of a logger's filler taken out at line\(s\) 10002, .* are.* delete those "
-            r"rows or write their stamps")
+    told = (r"line 10023, field 'Time \[s\]': time stamp out of order \(99\.99249981249532 s then 0\.0 s\); "
+            r"10 row\(s\) holding values stamped 0 s after later stamps, at line\(s\) 10023, 10024, .*10032: "
+            r"their stamps were zeroed, as the 21 all-zero rows of a logger's filler taken out at line\(s\) 10002, .* "
+            r"are.* delete those rows or write their stamps")
     data, config = _akit_as_column_map(akit_dir, tmp_path / "map", imu_edit=stalled)
     folder = _copy_trajectory(akit_dir, tmp_path)
     _edit_lines(folder / "IMU_trajectory1.csv", stalled)
@@ -3324,7 +3324,8 @@ def test_a_nan_run_split_by_one_row_beyond_full_scale_is_one_gap_naming_its_line
     f_b[[1, 2, 3, 6, 7]] = np.nan
     assert imu_unmeasured(t, f_b, omega_b, source="imu.csv")["empty or NaN in 'f_b x'"].sum() == 5
     f_b[5] = np.nan                         # row 4 alone between rows 1-3 and 5-7: 800 s
-    with pytest.raises(DataError, match=r"line 10: IMU gap left by 6 IMU row\(s\) .*\) and 1 alone between them.* of 800 s"):
+    with pytest.raises(DataError, match=r"line 10: IMU gap left by 6 IMU row\(s\) .*\) and 1 alone between them.* "
+                                        r"of 800 s"):
         imu_unmeasured(t, f_b, omega_b, source="imu.csv", lines=np.arange(10) + 2)
 
 
