@@ -1394,9 +1394,11 @@ def _zeroed_stamps(t: np.ndarray, lines: np.ndarray, filler_lines: np.ndarray | 
     """What to do with the rows stamped exactly 0 after later stamps ``t`` (s, in file order, ``lines`` their file
     lines) or ``""`` when none: a stamp zeroed as a logger's filler's is (``filler_lines``: the lines of the filler
     taken out, :func:`zeroed_filler`) on rows holding values (a stalled sensor's repeats) is no time. Sorting them
-    (``repair``) would put them at the file's start, so the advice is to delete or stamp them."""
-    zero = np.flatnonzero((t[1:] == 0.0) & (np.maximum.accumulate(t)[:-1] > 0.0)) + 1
-    if not zero.size:
+    (``repair``) would put them at the file's start, so the advice is to delete or stamp them. Only where every row
+    behind a later stamp is stamped 0: a recording whose clock restarts at 0 goes on from there (0.01 s, ...)."""
+    behind = np.flatnonzero(t[1:] < np.maximum.accumulate(t)[:-1]) + 1
+    zero = behind[t[behind] == 0.0]
+    if not zero.size or zero.size < behind.size:
         return ""
     beside = (f", as the {len(filler_lines)} all-zero rows of a logger's filler taken out at line(s) "
               f"{first_lines(np.asarray(filler_lines))} are" if filler_lines is not None and len(filler_lines) else "")
