@@ -3126,7 +3126,7 @@ def test_a_stall_stamped_0_after_zeroed_filler_is_told_to_be_deleted_not_sorted(
     0 too: refused as 'time stamp out of order (99.99249981249532 s then 0.0 s); 1 such line(s); pass repair=True',
     advice that sorts those rows to the file's start. The rows stamped 0 are named, all ten, as stamps zeroed beside
     the filler, with advice that works: deleting them, the file is read (the filler refused, its gap bridged)."""
-    from graphnav.core.screening import IMU_FILLER
+    from graphnav.core.screening import IMU_FILLER, stamp_order
     from graphnav.missions import load_akit, load_mission
     from tests.test_generic_csv import _akit_as_column_map
 
@@ -3147,6 +3147,11 @@ def test_a_stall_stamped_0_after_zeroed_filler_is_told_to_be_deleted_not_sorted(
     _edit_lines(folder / "IMU_trajectory1.csv", lambda lines: lines[:10022] + lines[10032:])
     m, _ = _quiet_load(load_akit, folder)
     assert m.meta["streams"]["imu"]["refused"] == {IMU_FILLER: 21} and len(m.imu.t) == 40000 - 31
+    # a second recording whose clock restarts at 0 goes on from there: no zeroed stamps, the advice as before
+    t = np.r_[np.arange(100) * 0.01, np.arange(50) * 0.01]
+    rows = np.column_stack([t, np.random.default_rng(0).normal(size=(150, 6))])
+    with pytest.raises(DataError, match="pass repair=True"):
+        stamp_order(t, rows, np.arange(150) + 2, "imu.csv", "t", False, None, "imu")
 
 
 def test_screening_a_mission_twice_counts_each_refusal_once():
