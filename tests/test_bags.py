@@ -1374,6 +1374,20 @@ def test_filler_messages_with_zeroed_header_stamps_are_filler_not_a_reason_for_r
     assert any("receive time" in n for n in imu["notes"]) and not any("in the stamps" in w for w in warned)
 
 
+def test_the_gap_filler_with_zeroed_header_stamps_leaves_is_no_samples_lost(tmp_path):
+    """21 IMU messages of filler with their header stamps zeroed (0.21 s): refused as filler, and the gap they leave
+    was warned about again as '21 samples lost' and counted as doubted. It is said once, as the filler refused."""
+    from graphnav.core.screening import IMU_FILLER, IMU_GAP
+    mission = simulate_mission(duration_s=40.0, seed=5)
+    rows = list(range(2000, 2021))
+    mission.imu.f_b[rows], mission.imu.omega_b[rows] = 0.0, 0.0
+    m, warned = _load(_zeroed_header_bag(mission, tmp_path / "zeroed", rows), mission.config)
+    imu = m.meta["streams"]["imu"]
+    assert imu["refused"] == {IMU_FILLER: 21} and IMU_GAP not in imu.get("doubted", {})
+    assert not [w for w in warned if "samples lost" in w]
+    assert len([w for w in warned if IMU_FILLER in w]) == 1
+
+
 def test_a_bag_loaded_then_screened_has_its_imu_screened_once(tmp_path, monkeypatch):
     """A bag read by ``load_bag`` (its IMU messages holding no measurement refused at read) and then screened by
     ``screen_mission``: each rule runs once. Screened a second time (the mission and its meta passed on), its IMU was
@@ -1381,19 +1395,19 @@ def test_a_bag_loaded_then_screened_has_its_imu_screened_once(tmp_path, monkeypa
     screened once keeps its IMU as screened, and the mission read, screened again, is screened again (marked in the
     meta both share, its IMU was kept unscreened)."""
     from graphnav.core import screening
-    from graphnav.io import loaders
+    from graphnav.io import loaders, screened
     calls = {"gaps": 0, "plausible": 0}
-    gaps, plausible = screening.check_filler_gaps, loaders.imu_implausible
+    gaps, plausible = screening.check_filler_gaps, screened.imu_implausible
     monkeypatch.setattr(screening, "check_filler_gaps", lambda *a, **k: calls.update(gaps=calls["gaps"] + 1) or
                         gaps(*a, **k))
-    monkeypatch.setattr(loaders, "imu_implausible", lambda *a, **k: calls.update(plausible=calls["plausible"] + 1) or
+    monkeypatch.setattr(screened, "imu_implausible", lambda *a, **k: calls.update(plausible=calls["plausible"] + 1) or
                         plausible(*a, **k))
     mission = simulate_mission(duration_s=20.0, seed=5)
     mission.imu.f_b[[300, 900]] = 0.0
     mission.imu.f_b[1200, 0] = 500.0
     path = bag_driver.write_driver_bag(mission, tmp_path / "bag", leak_sensor=False, housing_sensor=False)
     with pytest.warns(RuntimeWarning):
-        raw = bags.load_bag(path, mission.config)
+        raw = bags.load_bag(path, mission.config, screen=False)
         assert calls == {"gaps": 1, "plausible": 0}
         m = loaders.screen_mission(raw)
     assert calls == {"gaps": 1, "plausible": 1}
@@ -1407,6 +1421,28 @@ def test_a_bag_loaded_then_screened_has_its_imu_screened_once(tmp_path, monkeypa
     with pytest.warns(RuntimeWarning, match="f_b beyond 156.906 m/s"):
         twice = loaders.screen_mission(raw)
     assert calls["plausible"] == 2 and len(twice.imu.t) == 1998 and np.abs(twice.imu.f_b).max() < 100.0
+
+
+def test_load_bag_alone_screens_the_bag_as_smooth_does(tmp_path):
+    """``graphnav.io.load_bag`` alone (the public reader) never ran the full-scale and spike rules ``graphnav smooth``
+    runs on a bag (``read_mission``): an IMU message of 500 m/s^2 was kept without a word.
+    It screens the bag as every reader's rows are, each refusal once (``smooth``'s reading screens nothing again)."""
+    import warnings
+
+    from graphnav.io.loaders import read_mission
+    mission = simulate_mission(duration_s=20.0, seed=5)
+    mission.imu.f_b[1200, 0] = 500.0
+    path = bag_driver.write_driver_bag(mission, tmp_path / "bag", leak_sensor=False, housing_sensor=False)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        m = bags.load_bag(path, mission.config)
+    assert np.abs(m.imu.f_b).max() < 100.0 and m.meta["streams"]["imu"]["refused"] == {"f_b beyond 156.906 m/s^2": 1}
+    assert any("f_b beyond 156.906 m/s^2" in str(w.message) for w in caught)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        read = read_mission(path)
+    assert read.meta["streams"]["imu"]["refused"] == {"f_b beyond 156.906 m/s^2": 1}
+    np.testing.assert_array_equal(read.imu.f_b, m.imu.f_b)
 
 
 def test_filler_with_zeroed_stamps_beside_a_message_published_twice_keeps_the_header_stamps(tmp_path):

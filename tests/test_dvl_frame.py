@@ -1063,7 +1063,7 @@ def test_a_dvl_mostly_without_pings_and_a_few_spikes_is_not_advised_a_knots_unit
 def test_knots_read_as_m_s_with_most_pings_without_bottom_lock_are_refused_naming_both(sim600, tmp_path):
     """Knots read as m/s with 55 % of the pings without bottom lock: the refusal said only "check bottom lock", dropping
     the unit the pings beyond the envelope (0.37 of the rest, not a few spikes) point to. Both are said now."""
-    from graphnav.io.loaders import UNIT_ADVICE_MIN_SPEED_SHARE
+    from graphnav.io.screened import UNIT_ADVICE_MIN_SPEED_SHARE
     m, t, v_b = sim600
     v = v_b / 0.514444
     v[np.random.default_rng(3).random(len(t)) < 0.55] = np.nan

@@ -1533,6 +1533,20 @@ def test_an_akit_file_with_a_decimal_comma_is_told_so_not_too_many_fields(tmp_pa
         read_csv(path, AKIT_COLUMNS["IMU"])
 
 
+def test_an_akit_line_quoting_a_number_beside_a_decimal_comma_names_both_cells(tmp_path):
+    """An A-KIT IMU line quoting "0.1" and "0,2": only '0,2' was reported (the quotes were taken off every cell to
+    split the line), where "0.1" quoted alone is refused as no number. Both cells are named, each as it is alone."""
+    from graphnav.io.loaders import AKIT_COLUMNS, read_csv
+    rows = [f"{0.01 * k:.2f},0.1,0.2,-9.8,0.01,0.02,0.03" for k in range(5)]
+    rows[2] = rows[2].replace(",0.1,0.2,", ',"0.1","0,2",')
+    path = tmp_path / "IMU_trajectory1.csv"
+    path.write_text("\n".join([",".join(AKIT_COLUMNS["IMU"]), *rows]) + "\n")
+    told = (r"2 bad line\(s\): line 4, column 'ACC X \[m/s\^2\]': not a number: '\"0\.1\"'; line 4, column "
+            r"'ACC Y \[m/s\^2\]': not a number: '0,2', a decimal comma in a quoted cell")
+    with pytest.raises(DataError, match=told):
+        read_csv(path, AKIT_COLUMNS["IMU"])
+
+
 def test_an_akit_file_separated_by_semicolons_is_told_its_separator(tmp_path):
     """An A-KIT IMU file written by a spreadsheet set to a decimal comma: cells separated by ';' and "0,5" numbers. It
     was refused as 'missing column(s) [all seven]; header is ['Time [s];ACC X [m/s^2];...']', the columns there but

@@ -3094,6 +3094,90 @@ def test_filler_rows_with_their_stamps_zeroed_too_are_filler_not_stamps_out_of_o
     assert any("50 imu sample(s) refused (50 all-zero IMU row" in w and "line(s) 10002, 10003" in w for w in said)
 
 
+def test_the_gap_zeroed_filler_leaves_is_filler_removed_not_samples_lost(akit_dir, tmp_path):
+    """Trajectory1 as a column map and as an A-KIT folder with 21 IMU rows (0.21 s at t = 100 s) written whole as zeros,
+    stamp included: the rows were refused as filler, and the gap they leave was warned about again as 'a gap of 0.21 s
+    in the stamps (21 periods, a whole number: 21 samples lost ...)' and counted as doubted. Filler taken out is no
+    loss: said once, as filler refused. Rows deleted beside the filler are still samples lost, and only they."""
+    from graphnav.core.screening import IMU_FILLER, IMU_GAP
+    from graphnav.missions import load_akit, load_mission
+    from tests.test_generic_csv import _akit_as_column_map
+
+    def deleted_after(edit, n):
+        return lambda lines: (lambda out: out[:10022] + out[10022 + n:])(edit(lines))
+    for n in (0, 30):
+        edit = deleted_after(_zero_imu_rows(range(10000, 10021), stamps=False), n)
+        data, config = _akit_as_column_map(akit_dir, tmp_path / f"map{n}", imu_edit=edit)
+        folder = _copy_trajectory(akit_dir, tmp_path / f"akit{n}")
+        _edit_lines(folder / "IMU_trajectory1.csv", edit)
+        for m, said in (_quiet_load(load_mission, data, config), _quiet_load(load_akit, folder)):
+            imu = m.meta["streams"]["imu"]
+            assert imu["refused"] == {IMU_FILLER: 21} and len(m.imu.t) == 40000 - 21 - n
+            lost = [w for w in said if "in the stamps" in w]
+            if n == 0:
+                assert not lost and IMU_GAP not in imu.get("doubted", {}), (lost, imu.get("doubted"))
+            else:
+                assert imu["doubted"][IMU_GAP] == 1 and len(lost) == 1
+                assert "(51 periods, a whole number: 30 samples lost beyond the 21 row(s) of filler" in lost[0]
+
+
+def test_a_stall_stamped_0_after_zeroed_filler_is_told_to_be_deleted_not_sorted(akit_dir, tmp_path):
+    """Trajectory1 with 21 IMU rows of filler stamped 0 (at t = 100 s), then 10 rows repeating the last reading, stamped
+    0 too: refused as 'time stamp out of order (99.99249981249532 s then 0.0 s); 1 such line(s); pass repair=True',
+    advice that sorts those rows to the file's start. The rows stamped 0 are named, all ten, as stamps zeroed beside
+    the filler, with advice that works: deleting them, the file is read (the filler refused, its gap bridged)."""
+    from graphnav.core.screening import IMU_FILLER, stamp_order
+    from graphnav.missions import load_akit, load_mission
+    from tests.test_generic_csv import _akit_as_column_map
+
+    def stalled(lines):
+        lines = _zero_imu_rows(range(10000, 10021), stamps=False)(lines)
+        return lines[:10022] + ["0," + lines[10000].split(",", 1)[1]] * 10 + lines[10032:]
+    told = (r"line 10023, field 'Time \[s\]': time stamp out of order \(99\.99249981249532 s then 0\.0 s\); "
+            r"10 row\(s\) holding values stamped 0 s after later stamps, at line\(s\) 10023, 10024, .*10032: "
+            r"their stamps were zeroed, as the 21 all-zero rows of a logger's filler taken out at line\(s\) 10002, .* "
+            r"are.* delete those rows or write their stamps")
+    data, config = _akit_as_column_map(akit_dir, tmp_path / "map", imu_edit=stalled)
+    folder = _copy_trajectory(akit_dir, tmp_path)
+    _edit_lines(folder / "IMU_trajectory1.csv", stalled)
+    for load, args in ((load_mission, (data, config)), (load_akit, (folder,))):
+        with pytest.raises(DataError, match=told), warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            load(*args)
+    _edit_lines(folder / "IMU_trajectory1.csv", lambda lines: lines[:10022] + lines[10032:])
+    m, _ = _quiet_load(load_akit, folder)
+    assert m.meta["streams"]["imu"]["refused"] == {IMU_FILLER: 21} and len(m.imu.t) == 40000 - 31
+    # a second recording whose clock restarts at 0 goes on from there: no zeroed stamps, the advice as before
+    t = np.r_[np.arange(100) * 0.01, np.arange(50) * 0.01]
+    rows = np.column_stack([t, np.random.default_rng(0).normal(size=(150, 6))])
+    with pytest.raises(DataError, match="pass repair=True"):
+        stamp_order(t, rows, np.arange(150) + 2, "imu.csv", "t", False, None, "imu")
+
+
+def test_screening_a_mission_twice_counts_each_refusal_once():
+    """A mission with one IMU row beyond full scale, screened twice (the mission passed twice, or the mission screened
+    passed again): the second pass counted the refusal again in the meta they all shared ('f_b beyond 156.906
+    m/s^2': 2, in the first result's meta too). Now the mission passed in is left as it was, each result counts it
+    once, and a screened mission is returned as it is."""
+    import copy
+
+    from graphnav.io.loaders import screen_mission
+    from graphnav.sim.simulate import simulate_mission
+    mission = simulate_mission(duration_s=20.0, seed=5)
+    mission.imu.f_b[1200, 0] = 500.0
+    before = copy.deepcopy(mission.meta)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        first = screen_mission(mission)
+        second = screen_mission(mission)
+        again = screen_mission(first)
+    assert mission.meta.keys() == before.keys() and mission.meta.get("streams") == before.get("streams")
+    for m in (first, second, again):
+        assert m.meta["streams"]["imu"]["refused"] == {"f_b beyond 156.906 m/s^2": 1}
+        assert len(m.imu.t) == len(mission.imu.t) - 1
+    assert again is first
+
+
 def test_nan_imu_rows_over_700_s_are_the_imu_stopping_as_deleted_rows_and_filler_are(akit_dir, tmp_path):
     """Trajectory1 as a column map with the IMU's second half 700 s later: the rows between deleted, or written at
     1 Hz as all-zero filler, were refused as the IMU stopping; written at 1 Hz with NaN values they loaded, the 700 s
@@ -3226,16 +3310,18 @@ def test_a_nan_run_split_by_one_row_beyond_full_scale_is_one_gap_naming_its_line
     """Trajectory1 as a column map with 700 s at 1 Hz inside it of NaN rows but one, 350 s in, beyond full scale
     (900 m/s^2): read as two runs of 350 s, each bridged, and the row then refused for its range; the 700 s gap was
     refused only by the run (``smooth``), naming the file and the field 't' but no line. A lone row between two runs
-    without a measurement bridges nothing: the gap is the IMU stopping, named by the line after it, at read."""
+    without a measurement bridges nothing: the gap is the IMU stopping, named by the line after it, at read. The rows
+    without a measurement are counted without the lone row, which holds one (it was counted among them: '699 IMU
+    row(s) without a measurement (...; 1 alone between them ...)')."""
     from graphnav.core.screening import imu_unmeasured
     from graphnav.missions import load_mission
     from tests.test_generic_csv import _akit_as_column_map
 
     later = _700_s_later(lambda k: "900,0,-9.8,0,0,0" if k == 350 else ",".join(["nan"] * 6))
     data, config = _akit_as_column_map(akit_dir, tmp_path / "lone", imu_edit=later)
-    with pytest.raises(DataError, match=r"imu\.csv, line 20701: IMU gap left by 699 IMU row\(s\) without a "
-                                        r"measurement \(NaN or infinite values; 1 alone between them, which bridges "
-                                        r"nothing\) of 700\.01 s after t = 199\.995 s is longer than the 600 s"):
+    with pytest.raises(DataError, match=r"imu\.csv, line 20701: IMU gap left by 698 IMU row\(s\) without a "
+                                        r"measurement \(NaN or infinite values\) and 1 alone between them, which "
+                                        r"bridges nothing of 700\.01 s after t = 199\.995 s is longer than the 600 s"):
         _quiet_load(load_mission, data, config)
     # two rows between the runs are two samples: each run bridged alone, as before
     t = np.arange(10.0) * 100.0
@@ -3243,7 +3329,8 @@ def test_a_nan_run_split_by_one_row_beyond_full_scale_is_one_gap_naming_its_line
     f_b[[1, 2, 3, 6, 7]] = np.nan
     assert imu_unmeasured(t, f_b, omega_b, source="imu.csv")["empty or NaN in 'f_b x'"].sum() == 5
     f_b[5] = np.nan                         # row 4 alone between rows 1-3 and 5-7: 800 s
-    with pytest.raises(DataError, match=r"line 10: IMU gap left by 7 IMU row\(s\) .*1 alone between them.* of 800 s"):
+    with pytest.raises(DataError, match=r"line 10: IMU gap left by 6 IMU row\(s\) .*\) and 1 alone between them.* "
+                                        r"of 800 s"):
         imu_unmeasured(t, f_b, omega_b, source="imu.csv", lines=np.arange(10) + 2)
 
 

@@ -196,15 +196,23 @@ def stamp_jumps(t: float, previous: float) -> str | None:
     stream, s), ahead of it or behind it: more than :data:`MAX_STAMP_GAP_S` (days to years: a clock reset or a
     corrupted stamp; a stamp days in the past is as far off its stream's clock as one days ahead), or None."""
     if math.isfinite(previous) and abs(t - previous) > MAX_STAMP_GAP_S:
-        return (f"stamp jumps {abs(t - previous):.6g} s {'ahead of' if t > previous else 'behind'} the stream (more "
+        return (f"stamp jumps {abs(t - previous):.6g} s {jump_direction(previous, t, 'the stream')} (more "
                 f"than {MAX_STAMP_GAP_S:g} s)")
     return None
+
+
+def jump_direction(before: float, after: float, of: str | None = None) -> str:
+    """Which way the stamp ``after`` (s) is off ``before`` (s), in the words every message about a stamp off its clock
+    uses: "ahead" or "back", or off ``of`` (what it is off: "the stream"): "ahead of ..." or "behind ..."."""
+    if of is None:
+        return "ahead" if after > before else "back"
+    return f"{'ahead of' if after > before else 'behind'} {of}"
 
 
 def clock_jump_words(before: float, after: float) -> str:
     """How far and which way a clock jumped from the stamp ``before`` to ``after`` (s): e.g. "172800 s ahead",
     "1.7e+09 s back"."""
-    return f"{abs(after - before):.6g} s {'ahead' if after > before else 'back'}"
+    return f"{abs(after - before):.6g} s {jump_direction(before, after)}"
 
 
 def check_stamps(t: np.ndarray, source: str, field: str = "t") -> None:
@@ -822,16 +830,17 @@ def _left_by(rows: int, zeros: int, dead: int, lone: int = 0, row: str = "IMU ro
     """What a run of ``rows`` IMU rows without a measurement held, ``zeros`` of them a logger's filler and ``dead``
     a dead accelerometer's, ``lone`` of them a row alone between two such runs (:func:`_lone_rows`), the others NaN or
     infinite: each kind named, so the user looks for what the file holds (a run of filler and dead-accelerometer rows
-    was said to hold NaN). ``row``: what the file calls a row (a bag's: a message of its topic)."""
+    was said to hold NaN); the rows alone hold a measurement, and are named beside them, not counted among them.
+    ``row``: what the file calls a row (a bag's: a message of its topic)."""
+    rows -= lone
+    alone = f" and {lone} alone between them, which bridge{'s' * (lone == 1)} nothing" if lone else ""
     if zeros == rows:
-        return f"{rows} all-zero {row} (a logger's filler)"
+        return f"{rows} all-zero {row} (a logger's filler){alone}"
     kinds = [f"{zeros} all-zero: a logger's filler"] * bool(zeros) + [
         f"{dead} of a dead accelerometer: its three values 0 beside a live gyro"] * bool(dead)
-    if rows > zeros + dead + lone:
+    if rows > zeros + dead:
         kinds.append("the others NaN or infinite" if kinds else "NaN or infinite values")
-    if lone:
-        kinds.append(f"{lone} alone between them, which bridge{'s' * (lone == 1)} nothing")
-    return f"{rows} {row} without a measurement ({'; '.join(kinds)})"
+    return f"{rows} {row} without a measurement ({'; '.join(kinds)}){alone}"
 
 
 def _check_not_all_filler(filler: np.ndarray, source: str, lines: np.ndarray | None) -> None:
@@ -1304,8 +1313,8 @@ NUDGED_COPY_STEP_SHARE = 0.5
 
 
 def stamp_order(t: np.ndarray, rows: np.ndarray, lines: np.ndarray, source: str, field: str, repair: bool,
-                meta: dict | None = None, stream: str = "", imu_rate_hz: float | None = None
-                ) -> tuple[np.ndarray, dict[str, int], np.ndarray]:
+                meta: dict | None = None, stream: str = "", imu_rate_hz: float | None = None,
+                filler_lines: np.ndarray | None = None) -> tuple[np.ndarray, dict[str, int], np.ndarray]:
     """``(indices of the rows kept, in time order; {reason: rows dropped}; their stamps, s)`` of a file's stamps
     ``t`` (N,) s and its rows as read ``rows`` (N,k), ``lines`` their file lines.
 
@@ -1321,7 +1330,8 @@ def stamp_order(t: np.ndarray, rows: np.ndarray, lines: np.ndarray, source: str,
     counts, :func:`~graphnav.core.imu_timing.samples_sharing_a_stamp`), not a copy; where every row sharing a stamp
     is such a row but :data:`STUCK_DIFFER_SHARE` (a stuck sensor, or each row written twice: nothing tells) those
     kept are warned about and counted as doubted (:data:`STUCK_REPEATS`); a step of its clock or a gap is
-    warned about and counted (:func:`say_imu_stamp_steps`); ``imu_rate_hz``, the configured rate (Hz), tells an IMU
+    warned about and counted (:func:`say_imu_stamp_steps`; not the gap left by the filler taken out before at the file
+    ``filler_lines``, :func:`zeroed_filler`, refused as filler); ``imu_rate_hz``, the configured rate (Hz), tells an IMU
     slower than its logger's clock from one losing samples where the stamps cannot. The rest must increase strictly;
     else, with ``repair``, the rows are sorted and those whose stamp repeats an earlier one dropped (the first kept),
     with a warning; without it a DataError naming ``source``, the line, ``field`` and the way out (``--repair-stamps``):
@@ -1356,21 +1366,45 @@ def stamp_order(t: np.ndarray, rows: np.ndarray, lines: np.ndarray, source: str,
     step = np.diff(t[kept])
     bad = np.flatnonzero(step <= 0)
     if not bad.size:
-        _say_steps(read, t, kept, lines, source, field, meta, stream)
+        _say_steps(read, t, kept, lines, source, field, meta, stream, filler_lines)
         return kept, dropped, t[kept]
     packets = stamped_in_packets(t[kept])
     if not repair:
         i = kept[bad[0] + 1]
         kind = "duplicated" if step[bad[0]] == 0 else "out of order"
-        raise DataError(f"time stamp {kind} ({float(t[kept[bad[0]]])!r} s then {float(t[i])!r} s); {bad.size} such "
-                        f"line(s){packets}; pass repair=True (command line: --repair-stamps) to drop duplicates and "
-                        "sort", source, int(lines[i]), field)
+        raise DataError(f"time stamp {kind} ({float(t[kept[bad[0]]])!r} s then {float(t[i])!r} s); "
+                        f"{_zeroed_stamps(t, lines, filler_lines) or _repair_advice(bad.size, packets)}",
+                        source, int(lines[i]), field)
     kept = kept[np.argsort(t[kept], kind="stable")]
     first = np.concatenate([[True], np.diff(t[kept]) > 0])
     warnings.warn(f"{source}: {int((~first).sum())} duplicated and {int((step < 0).sum())} out-of-order "
                   f"stamp(s) repaired (duplicates dropped, first kept; rows sorted){packets}", stacklevel=3)
-    _say_steps(read, t, kept[first], lines, source, field, meta, stream)
+    _say_steps(read, t, kept[first], lines, source, field, meta, stream, filler_lines)
     return kept[first], {**dropped, REPAIRED_STAMP: int((~first).sum())}, t[kept[first]]
+
+
+def _repair_advice(rows: int, packets: str) -> str:
+    """The way out of stamps out of order that sorting them is: ``rows`` such lines, ``packets`` a note of their
+    being stamped in packets."""
+    return (f"{rows} such line(s){packets}; pass repair=True (command line: --repair-stamps) to drop duplicates and "
+            "sort")
+
+
+def _zeroed_stamps(t: np.ndarray, lines: np.ndarray, filler_lines: np.ndarray | None) -> str:
+    """What to do with the rows stamped exactly 0 after later stamps ``t`` (s, in file order, ``lines`` their file
+    lines) or ``""`` when none: a stamp zeroed as a logger's filler's is (``filler_lines``: the lines of the filler
+    taken out, :func:`zeroed_filler`) on rows holding values (a stalled sensor's repeats) is no time. Sorting them
+    (``repair``) would put them at the file's start, so the advice is to delete or stamp them. Only where every row
+    behind a later stamp is stamped 0: a recording whose clock restarts at 0 goes on from there (0.01 s, ...)."""
+    behind = np.flatnonzero(t[1:] < np.maximum.accumulate(t)[:-1]) + 1
+    zero = behind[t[behind] == 0.0]
+    if not zero.size or zero.size < behind.size:
+        return ""
+    beside = (f", as the {len(filler_lines)} all-zero rows of a logger's filler taken out at line(s) "
+              f"{first_lines(np.asarray(filler_lines))} are" if filler_lines is not None and len(filler_lines) else "")
+    return (f"{zero.size} row(s) holding values stamped 0 s after later stamps, at line(s) {first_lines(lines[zero])}: "
+            f"their stamps were zeroed{beside}, and a zeroed stamp is no time (repair=True would sort them to the "
+            "file's start); delete those rows or write their stamps")
 
 
 def exact_copies(t: np.ndarray, rows: np.ndarray) -> tuple[np.ndarray, bool]:
@@ -1650,16 +1684,17 @@ class NudgedCopies:
 
 
 def _say_steps(read: np.ndarray, t: np.ndarray, kept_rows: np.ndarray, lines: np.ndarray, source: str, field: str,
-               meta: dict | None, stream: str) -> None:
+               meta: dict | None, stream: str, filler_lines: np.ndarray | None = None) -> None:
     """:func:`say_imu_stamp_steps` of a file's ``kept_rows`` (indices, in time order) of its IMU stamps ``read``
     (s, as read) and ``t`` (s, as kept, restamped or not), for :func:`stamp_order`'s caller: on the stamps as read
-    where they never decrease, else (a repair sorted restamped rows) as kept. Another ``stream``'s:
-    :func:`say_close_samples`."""
+    where they never decrease, else (a repair sorted restamped rows) as kept; ``filler_lines``: the file lines of the
+    filler taken out before (:func:`zeroed_filler`). Another ``stream``'s: :func:`say_close_samples`."""
     if stream != "imu":
         say_close_samples(t[kept_rows], lines[kept_rows], source, stream, meta)
         return
     as_read = read[kept_rows] if np.all(np.diff(read[kept_rows]) >= 0) else t[kept_rows]
-    say_imu_stamp_steps(as_read, t[kept_rows], source, field, meta, lines=lines[kept_rows], stacklevel=4)
+    say_imu_stamp_steps(as_read, t[kept_rows], source, field, meta, lines=lines[kept_rows], stacklevel=4,
+                        filler=filler_between(lines[kept_rows], filler_lines))
 
 
 #: Reasons under which an IMU's samples read after a step of its stamps are counted as doubted (:func:`stamp_order`).
@@ -1668,7 +1703,8 @@ IMU_GAP = "stamped after a gap in the IMU data (whole periods: samples lost, bri
 
 
 def say_imu_stamp_steps(read: np.ndarray, kept: np.ndarray, source: str, field: str, meta: dict | None,
-                        lines: np.ndarray | None = None, where: list[str] | None = None, stacklevel: int = 2) -> None:
+                        lines: np.ndarray | None = None, where: list[str] | None = None, stacklevel: int = 2,
+                        filler: np.ndarray | None = None) -> None:
     """Warn about the steps of an IMU's stamps ``read`` (s, as read, never decreasing; ``kept``: as the reader keeps
     them, restamped or not, s) off a line at its period (:func:`~graphnav.core.imu_timing.stamp_steps`), each kind
     once, and count the sample after each as doubted in ``meta``: a step no whole number of periods long is the IMU
@@ -1676,23 +1712,38 @@ def say_imu_stamp_steps(read: np.ndarray, kept: np.ndarray, source: str, field: 
     (or the clock stepping whole periods: the stamps cannot tell); one sample lost is neither. The samples keep their
     stamps. Every reader's IMU stamps go through it: ``source`` and ``field`` name the file (a bag's topic) and the
     stamp field, each sample is named as :func:`located` names it (``lines``: a file's lines; ``where``: a bag's
-    messages with their time); ``stacklevel``: the caller's own."""
+    messages with their time); ``stacklevel``: the caller's own. ``filler`` (N-1,) int: the rows of a logger's filler
+    with their stamps zeroed taken out between each sample and the next (:func:`filler_between`): a gap they leave
+    alone is no samples lost (its rows were refused as filler, and said so), only what they leave beyond it."""
     period = imu_step_stats(np.diff(kept))[0]
     at, jump, lost = stamp_steps(read, period)
+    taken = np.zeros(at.size, int) if filler is None else np.asarray(filler, int)[at]
+    lost = np.where((taken > 0) & (lost > 0), np.maximum(lost - taken, 1), lost)
     for hit, reason in ((lost == 0, CLOCK_STEP), (lost >= GAP_WARN_SAMPLES, IMU_GAP)):
         if not np.any(hit):
             continue
-        i, size, m = at[hit][0], jump[hit][0], lost[hit][0]
+        i, size, m, k = at[hit][0], jump[hit][0], lost[hit][0], taken[hit][0]
+        filler_rows = f" beyond the {k} row(s) of filler taken out there" if k else ""
         what = (f"the IMU clock steps {1e3 * size:+.4g} ms off its period ({size / period:+.3g} periods: no whole "
                 "number of them, so no samples lost explain it)" if reason == CLOCK_STEP else
-                f"a gap of {size:.4g} s in the stamps ({m} periods, a whole number: {m} samples lost, or the clock "
-                "stepped as many periods; the stamps cannot tell), which the run bridges")
+                f"a gap of {size:.4g} s in the stamps ({m + k} periods, a whole number: {m} samples lost{filler_rows}, "
+                "or the clock stepped as many periods; the stamps cannot tell), which the run bridges")
         warnings.warn(f"imu: {source}, {located(at[hit] + 1, lines, where, first=True)}, field '{field}': {what}, "
                       f"from t = {float(read[i])!r} to {float(read[i + 1])!r} s ({int(hit.sum())} such, at "
                       f"{located(at[hit] + 1, lines, where)}); the samples keep their stamps", RuntimeWarning,
                       stacklevel=stacklevel + 1)
         if meta is not None:
             count_doubted(meta, "imu", reason, int(hit.sum()))
+
+
+def filler_between(order: np.ndarray, taken: np.ndarray | None) -> np.ndarray | None:
+    """(N-1,) int: how many of the rows ``taken`` out (positions in the file: lines, a topic's message indexes; a
+    logger's filler with its stamps zeroed, :func:`zeroed_filler`) lie between each row at ``order`` (N,) and the next
+    (file positions, in time order; none where they go back); None without any taken."""
+    if taken is None or not len(taken):
+        return None
+    taken, order = np.sort(np.asarray(taken, int)), np.asarray(order, int)
+    return np.maximum(np.searchsorted(taken, order[1:]) - np.searchsorted(taken, order[:-1]), 0)
 
 
 def first_lines(lines: np.ndarray) -> str:
@@ -2117,7 +2168,7 @@ class StreamScreen:
             others = ("the IMU's", "the IMU went on") if refused_stream != "imu" else ("the other streams'",
                                                                                        "they went on")
             return (f"{n} of {received.get(refused_stream, n)} {refused_stream} samples are stamped more than "
-                    f"{MAX_STAMP_GAP_S:g} s {'ahead of' if after > before else 'behind'} {others[0]} (by "
+                    f"{MAX_STAMP_GAP_S:g} s {jump_direction(before, after, others[0])} (by "
                     f"{abs(after - before):.6g} s at t = {before:.3f} s) "
                     f"while {others[1]}: the {refused_stream} stamps are not on the clock the other streams "
                     "share; correct its stamps (their offset) or its clock")

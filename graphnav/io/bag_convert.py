@@ -20,9 +20,9 @@ from graphnav.core.errors import ConfigError, DataError
 from graphnav.core.mission import (MAX_DVL_SPEED_MPS, MAX_FIX_SIGMA_M, DepthData, DvlData, GroundTruth, HeadingData,
                                    ImuData, PositionFixData, no_beams)
 from graphnav.core.rotations import C_NED_ENU
-from graphnav.core.screening import (EXACT_COPY, IMU_FILLER, MAX_STAMP_GAP_S, NUDGED_COPY, exact_copies, imu_unmeasured,
-                                     located, nudged_copies, refuse_rows, say_exact_copies, say_imu_stamp_steps,
-                                     say_nudged_copies, zeroed_filler)
+from graphnav.core.screening import (EXACT_COPY, IMU_FILLER, MAX_STAMP_GAP_S, NUDGED_COPY, exact_copies, filler_between,
+                                     imu_unmeasured, located, nudged_copies, refuse_rows, say_exact_copies,
+                                     say_imu_stamp_steps, say_nudged_copies, zeroed_filler)
 from graphnav.core.streams import add_note, count_refused, say_doubted
 from graphnav.io import bag_fields
 from graphnav.io.bag_stamps import (CLOCK_DRIFT_MAX_RATE, CLOCK_DRIFT_NOTE_S, HEADER_CLOCK_DRIFT,
@@ -537,7 +537,9 @@ def imu(s: Stream, t0_ns: int, source: str, meta: dict) -> ImuData:
     topic = f"{source}:{s.topic}"
     # on every message's stamp, as a column map's rows before any is refused: the stamps of messages holding no
     # measurement are the IMU's clock still ticking, no samples lost (their gap is the run's to bridge)
-    say_imu_stamp_steps(t, t, topic, STAMP_FIELDS[s.stamp_kind], meta, where=where)
+    filler = s.twice.get(IMU_FILLER)       # those whose stamps were zeroed too, taken out before: no loss
+    say_imu_stamp_steps(t, t, topic, STAMP_FIELDS[s.stamp_kind], meta, where=where, filler=filler_between(
+        np.arange(len(s.rows)) if s.index is None else s.index, None if filler is None else filler[0]))
     unmeasured = imu_unmeasured(t, f, w, IMU_MESSAGE_FIELDS, topic, where=where, row=f"message(s) of {s.topic}")
     t, f, w = refuse_rows(meta, "imu", unmeasured, topic, None, t, f, w, where=where, fields=IMU_MESSAGE_FIELDS)
     meta["imu_unmeasured_screened"] = True

@@ -392,11 +392,15 @@ def _apply_beam_geometry(config: SensorConfig, info: dict, source: str) -> Senso
 
 
 def load_bag(path: str | Path, config: SensorConfig | None = None, topics: dict[str, str] | None = None,
-             name: str | None = None, atmospheric_pressure_configured: bool = False) -> Mission:
-    """A :class:`Mission` from a ROS bag (see the module docstring).
+             name: str | None = None, atmospheric_pressure_configured: bool = False, screen: bool = True) -> Mission:
+    """A :class:`Mission` from a ROS bag (see the module docstring), screened as every reader's rows are
+    (:func:`graphnav.io.screened.screen_mission`: IMU messages beyond full scale or spiking, DVL pings outside the
+    vehicle's envelope, depth and reference samples out of range, each refused and counted); read alone it kept them
+    (a 500 m/s^2 IMU message used without a word), where ``graphnav smooth`` refused them.
 
     ``atmospheric_pressure_configured``: subtract ``config.atmospheric_pressure_pa`` as given instead of
-    estimating the surface pressure from the first seconds of the record."""
+    estimating the surface pressure from the first seconds of the record. ``screen=False``: the mission as read, only
+    its messages holding no measurement refused (to screen later, once)."""
     from graphnav.io.bag_stamps import compare_clocks, header_minus_receive_s, latency_rate
     path = Path(path)
     config = dataclasses.replace(config) if config is not None else SensorConfig()
@@ -482,8 +486,12 @@ def load_bag(path: str | Path, config: SensorConfig | None = None, topics: dict[
         meta["prepare"]["depth_positive"] = positive
     elif meta.get("depth_turned_up"):       # turned by the reader: the vertical velocity must confirm it
         meta["prepare"]["depth_turned_up"] = True
-    return Mission(name or (path.stem if path.is_file() else path.name), imu, dvl, config, gt, depth, meta,
-                   heading=heading, fixes=fixes)
+    mission = Mission(name or (path.stem if path.is_file() else path.name), imu, dvl, config, gt, depth, meta,
+                      heading=heading, fixes=fixes)
+    if not screen:
+        return mission
+    from graphnav.io.screened import screen_mission
+    return screen_mission(mission)
 
 
 def warn_depth_turn_unconfirmed(mission: Mission) -> None:

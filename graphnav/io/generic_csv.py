@@ -397,7 +397,7 @@ def _read(root: Path, data_file: Path | None, spec: dict, stream: str, groups: d
             check_declared_time_span(t, t_imu, stream, str(path), unit, key, spec["t"], own)
         check_stamp_bound(t, float(t_imu[0]), stream, str(path), unit, key, spec["t"], lines, own)
     kept, dropped, t_kept = stamp_order(t, values, lines, str(path), spec["t"], repair, meta, stream,
-                                         imu_rate_hz)
+                                         imu_rate_hz, filler_lines=zeroed_lines)
     if dropped or zeroed_lines.size:
         _count_read(meta, stream, t, path)       # the rows dropped were read
         for reason, n in dropped.items():
