@@ -604,7 +604,7 @@ class Aligner:
             return False
         return not self._needs_heading_check() or self._checked == self._data_key()
 
-    def check_ready(self) -> bool:
+    def check_ready(self, wait_after_joined_gaps: bool = True) -> bool:
         """Decide whether the alignment can start, and over which data (it changes them; :attr:`ready` does not):
         True when :meth:`result` can produce an :class:`Alignment`.
 
@@ -614,7 +614,9 @@ class Aligner:
         before gaps were joined. Simulated (``simulate_mission(250, "navigation", seed)`` from 120 s, 90 s, IMU
         samples lost 20 s in), the joined heading was 5-10 deg off where the stretch after the gap gave 0.2-2.8 deg
         (docs/decisions/alignment.md). A further IMU gap longer than :data:`GAP_CARRIED_S` before then, or the end
-        of the data (:meth:`stop_waiting`), keeps the alignment across the gaps as it was when first ready."""
+        of the data (:meth:`stop_waiting`), keeps the alignment across the gaps as it was when first ready. A caller
+        that cannot go back over the data gathered meanwhile (a Navigator without ``align_catch_up``) passes
+        ``wait_after_joined_gaps=False`` and takes the alignment across the gaps at once."""
         if self._joined_wait is not None:
             if self._n_gaps_told != self._joined_wait[1]:
                 self.stop_waiting()
@@ -638,7 +640,7 @@ class Aligner:
             self._solve_checked(None)
         except AlignmentError:
             return False
-        if not self._needs_heading_check():      # started again after the gaps
+        if not self._needs_heading_check() or not wait_after_joined_gaps:      # started again after the gaps
             return True
         self._joined_wait = (copy.deepcopy(self), self._n_gaps_told)
         return self.check_ready()

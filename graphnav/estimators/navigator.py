@@ -1011,8 +1011,9 @@ class Navigator:
             a.add_ping(*payload)
         else:
             getattr(a, "add_position_fix" if stream == "fix" else "add_" + stream)(t, *payload)
-        # across joined IMU gaps it waits for the data after the last of them (Aligner.check_ready)
-        if stream != "imu" or not a.check_ready():
+        # across joined IMU gaps it waits for the data after the last of them (Aligner.check_ready), when it can run
+        # the estimator through the data gathered meanwhile: else a held alignment would leave them unaided
+        if stream != "imu" or not a.check_ready(self.options.align_catch_up):
             return []
         return self._start_from_aligner(t)
 
