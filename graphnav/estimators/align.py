@@ -56,8 +56,9 @@ IMU gaps of 0.2-2.5 s (:data:`GAP_JOINED_S`) are joined: each stretch after one 
 on the left) and its velocity change offset, with priors from the rates and specific forces around the gap
 (:func:`_gap_priors`); a gyrocompassed heading is then checked from starts turned 90 deg either way and, when they
 fit as well elsewhere, the alignment starts again after the gaps as it did before gaps were joined, refused only when
-that stretch is short too (:meth:`Aligner._solve_checked`); :func:`align_mission` also takes the recorded stretch
-after the last gap once it is long enough on its own. Levelling with a given heading or a heading source joins them.
+that stretch is short too (:meth:`Aligner._solve_checked`); one that passes the check is taken over the stretch after
+the last gap once that is long enough on its own, live and recorded alike (:meth:`Aligner.check_ready`). Levelling with
+a given heading or a heading source joins them.
 
 Robustness: a single bad sample must not move the alignment. The aligner refuses what the screening of
 :mod:`graphnav.core.screening` refuses (an IMU value beyond the instrument's full scale; a ping beyond the
@@ -325,7 +326,7 @@ def _rss(terms: dict) -> float:
 class Aligner:
     """Initial state of a moving vehicle from its IMU, DVL, depth sensor and optional fixes and headings.
 
-    Feed measurements in time order (``add_*``); when :attr:`ready`, :meth:`result` gives the
+    Feed measurements in time order (``add_*``); when :meth:`check_ready` says so, :meth:`result` gives the
     :class:`Alignment` at the last sample used. See the module docstring for the method and its accuracy.
 
     Args:
@@ -357,8 +358,15 @@ class Aligner:
         self._dvl_spike = SpikeTest(spec.max_accel_mps2, spec.jump_tolerance_mps)
         # IMU gaps (t0, t1) s met so far, and the longest stretch of data before the last of them (imu, dvl, depth)
         self.imu_gaps: list[tuple[float, float]] = []
-        # IMU gaps (t0, t1) s the alignment joins over (:data:`GAP_JOINED_S`): fitted, not started again after
+        # IMU gaps (t0, t1) s the alignment joins over (:data:`GAP_JOINED_S`): fitted, not started again after; only
+        # those inside the data held are kept (a live run with periodic gaps would grow the list for its whole length)
         self.joined_gaps: list[tuple[float, float]] = []
+        self._n_gaps_told = 0        # IMU gaps longer than GAP_CARRIED_S told so far (imu_gap)
+        # the data held (_data_key) when the joined gaps last left the heading determined: not checked again for them
+        self._checked: tuple | None = None
+        # (this aligner as it was when ready across joined gaps, _n_gaps_told then) while the data after the last of
+        # them gather (check_ready)
+        self._joined_wait: tuple[Aligner, int] | None = None
         # (IMU stamp to fit again at, s, why) when joined gaps last left the heading undetermined (_solve_checked),
         # and how many times in a row they did
         self._undetermined: tuple[float, str] | None = None
@@ -446,6 +454,7 @@ class Aligner:
         over the longest stretch (:attr:`t_first`)."""
         if t1 - t0 <= GAP_CARRIED_S:
             return
+        self._n_gaps_told += 1
         if t1 - t0 <= GAP_JOINED_S:
             self.joined_gaps.append((float(t0), float(t1)))
             return
@@ -464,6 +473,12 @@ class Aligner:
             self._before_gap = held
         self._imu, self._dvl, self._depth = self._imu[k:], [d for d in self._dvl if d[0] > t0], \
             [d for d in self._depth if d[0] > t0]
+        self._forget_joined_gaps(self._imu[0][0] if self._imu else t1)
+
+    def _forget_joined_gaps(self, t_first: float) -> None:
+        """Drop the joined IMU gaps that start before ``t_first`` (s), the first IMU sample held: no fit or check
+        uses them."""
+        self.joined_gaps = [g for g in self.joined_gaps if g[0] >= t_first]
 
     def _take_longest_stretch(self) -> None:
         """At the end of the data: align over the stretch before a gap when it is longer than the one after."""
@@ -500,6 +515,7 @@ class Aligner:
             del self._imu[:bisect.bisect_left([s[0] for s in self._imu], start)]
             del self._dvl[:bisect.bisect_left([s[0] for s in self._dvl], start)]
             del self._depth[:bisect.bisect_left([s[0] for s in self._depth], start)]
+            self._forget_joined_gaps(self._imu[0][0])
 
     # --- readiness --------------------------------------------------------------------------------
     @property
@@ -581,16 +597,71 @@ class Aligner:
 
     @property
     def ready(self) -> bool:
-        """True when :meth:`result` can produce an :class:`Alignment` (across joined IMU gaps: one whose heading the
-        data determine, or one over the stretch after the last of them, :meth:`_solve_checked`)."""
+        """True when :meth:`result` can produce an :class:`Alignment` now, without a fit: the data are enough and,
+        across joined IMU gaps with a gyrocompassed heading, :meth:`check_ready` found the heading determined for
+        the data held (and is not waiting for the data after the last of them)."""
+        if self.missing() or self._joined_wait is not None:
+            return False
+        return not self._needs_heading_check() or self._checked == self._data_key()
+
+    def check_ready(self, wait_after_joined_gaps: bool = True) -> bool:
+        """Decide whether the alignment can start, and over which data (it changes them; :attr:`ready` does not):
+        True when :meth:`result` can produce an :class:`Alignment`.
+
+        Across joined IMU gaps a gyrocompassed heading is checked (:meth:`_solve_checked`; one the gaps leave
+        undetermined starts again after them). One they leave determined is not taken yet: the aligner goes on
+        gathering until the data after the last of those gaps are enough on their own, and aligns over them as
+        before gaps were joined. Simulated (``simulate_mission(250, "navigation", seed)`` from 120 s, 90 s, IMU
+        samples lost 20 s in), the joined heading was 5-10 deg off where the stretch after the gap gave 0.2-2.8 deg
+        (docs/decisions/alignment.md). A further IMU gap longer than :data:`GAP_CARRIED_S` before then, or the end
+        of the data (:meth:`stop_waiting`), keeps the alignment across the gaps as it was when first ready. A caller
+        that cannot go back over the data gathered meanwhile (a Navigator without ``align_catch_up``) passes
+        ``wait_after_joined_gaps=False`` and takes the alignment across the gaps at once."""
+        if self._joined_wait is not None:
+            if self._n_gaps_told != self._joined_wait[1]:
+                self.stop_waiting()
+                return True
+            if not self._after_last_joined_ready():
+                return False
+            n, note = len(self._joined_steps(np.array([s[0] for s in self._imu]))), self._joined_note()
+            if self._fall_back():
+                self.stop_waiting()
+                return True
+            self._joined_wait = None
+            self._not_joined = (f"the IMU gap{'s' * (n > 1)} ({note}) not joined: the data after "
+                                f"{'them' if n > 1 else 'it'} are enough to gyrocompass over, as before gaps were "
+                                "joined (a heading across joined gaps is no better)")
+            return True
         if self.missing():
             return False
-        if self._needs_heading_check():
-            try:
-                self._solve_checked(None)
-            except AlignmentError:
-                return False
-        return True
+        if not self._needs_heading_check():
+            return True
+        try:
+            self._solve_checked(None)
+        except AlignmentError:
+            return False
+        if not self._needs_heading_check() or not wait_after_joined_gaps:      # started again after the gaps
+            return True
+        self._joined_wait = (copy.deepcopy(self), self._n_gaps_told)
+        return self.check_ready()
+
+    @property
+    def waiting_after_joined_gaps(self) -> bool:
+        """True while :meth:`check_ready` holds an alignment across joined IMU gaps and waits for the data after
+        the last of them."""
+        return self._joined_wait is not None
+
+    def stop_waiting(self) -> None:
+        """Take the alignment across the joined IMU gaps as it was when :meth:`check_ready` first found it ready
+        (the data after the last gap will not be enough: the data ended, or the state is wanted before the gap);
+        nothing when not waiting."""
+        if self._joined_wait is not None:
+            self.__dict__.update(self._joined_wait[0].__dict__)
+
+    def _data_key(self) -> tuple:
+        """What identifies the data held: IMU stamps first and last, and the counts of samples, pings and gaps."""
+        return (self._imu[0][0], self._imu[-1][0], len(self._imu), len(self._dvl), len(self.joined_gaps)) \
+            if self._imu else ()
 
     def _needs_heading_check(self) -> bool:
         return (bool(self.joined_gaps) and not self._has_heading_source() and len(self._imu) > 1
@@ -611,9 +682,11 @@ class Aligner:
             why = self._undetermined[1]
         else:
             al = self._solve(t_out, end_of_data)
+            if self._checked == self._data_key():
+                return al
             why = self._heading_undetermined(al, t_out, end_of_data)
             if why is None:
-                self._undetermined, self._n_undetermined = None, 0
+                self._undetermined, self._n_undetermined, self._checked = None, 0, self._data_key()
                 return al
             # each fit across hundreds of gaps costs seconds: wait twice as long after each refusal
             wait_s = HEADING_RECHECK_S * 2.0 ** min(self._n_undetermined, 20)
@@ -663,19 +736,22 @@ class Aligner:
         before gaps were joined: it aligns over the stretch after the last (at the end of the data: the longest).
         Returns what that stretch lacks ("" when it is enough; when it lacks any, the data held stay as they were)."""
         t = np.array([s[0] for s in self._imu])
-        held = (self._imu, self._dvl, self._depth, list(self.imu_gaps), self._before_gap, self._undetermined)
+        held = (self._imu, self._dvl, self._depth, list(self.imu_gaps), self._before_gap, self._undetermined,
+                self.joined_gaps)
         for i in self._joined_steps(t):
             self._start_again(float(t[i]), float(t[i + 1]))
         self._undetermined = None
         missing = self.missing(end_of_data)
         if missing:
-            self._imu, self._dvl, self._depth, self.imu_gaps, self._before_gap, self._undetermined = held
+            (self._imu, self._dvl, self._depth, self.imu_gaps, self._before_gap, self._undetermined,
+             self.joined_gaps) = held
             return "; ".join(missing)
+        self._n_undetermined = 0        # a later joined gap's first refusal waits HEADING_RECHECK_S again
         return ""
 
     def settle(self, end_of_data: bool = False) -> None:
         """Decide which data the alignment is over, so that :attr:`t_first` says where it starts: across the joined
-        IMU gaps, or after them when they leave the heading undetermined (:meth:`_solve_checked`; :attr:`ready`
+        IMU gaps, or after them when they leave the heading undetermined (:meth:`_solve_checked`; :meth:`check_ready`
         decides it live, this at the end of the data).
 
         Raises:
@@ -1223,32 +1299,6 @@ def _add_gap_priors(H: np.ndarray, g_vec: np.ndarray, Q: np.ndarray, jumps: np.n
         g_vec[v:v + 3] += jumps[j] / sigma_v[j] ** 2
 
 
-def _after_joined_gaps(aligner: Aligner, events: list, feed, t_result: float | None) -> Aligner:
-    """A recorded mission's aligner, ``aligner``, ready across joined IMU gaps with a gyrocompassed heading: the
-    aligner fed the ``events`` that follow until the data after the last of those gaps are enough on their own, which
-    then aligns over them as before gaps were joined (:meth:`Aligner._solve_checked`); ``aligner`` itself when the
-    mission ends, or a further IMU gap comes, first, or the state is wanted at ``t_result`` (s) before the last gap.
-    Joined, the heading of simulated navigation-grade missions was up to 10 deg worse than over the stretch after the
-    gap (docs/decisions/alignment.md)."""
-    if not aligner._needs_heading_check() or (t_result is not None and t_result < aligner.joined_gaps[-1][1]):
-        return aligner
-    later = copy.deepcopy(aligner)
-    n_gaps = (len(later.joined_gaps), len(later.imu_gaps))
-    for t, kind, i in events:
-        if feed(later, t, kind, i) and later._after_last_joined_ready():
-            n = len(later._joined_steps(np.array([s[0] for s in later._imu])))
-            note = later._joined_note()
-            if later._fall_back():
-                break
-            later._not_joined = (f"the IMU gap{'s' * (n > 1)} ({note}) not joined: the data after "
-                                 f"{'them' if n > 1 else 'it'} are enough to gyrocompass over, as before gaps were "
-                                 "joined (a heading across joined gaps is no better)")
-            return later
-        if (len(later.joined_gaps), len(later.imu_gaps)) != n_gaps:
-            break
-    return aligner
-
-
 def _orthonormalise(C: np.ndarray) -> np.ndarray:
     u, _, vt = np.linalg.svd(C)
     return u @ vt
@@ -1267,8 +1317,8 @@ def align_mission(mission, options: AlignOptions | None = None, *, use_depth: bo
     :func:`~graphnav.core.imu_timing.imu_rate_hz`), as the Navigator tells it live (:meth:`Aligner.imu_gap`: its
     keyframer judges gaps by the period the stream shows, not the configured one). A gyrocompassed heading ready
     across joined IMU gaps (:data:`GAP_JOINED_S`) is taken over the mission's data after the last of them instead
-    when they are enough on their own, as before gaps were joined (a recorded mission has them; live, waiting for
-    them would leave the time before the gap without estimates).
+    when they are enough on their own, as before gaps were joined (:meth:`Aligner.check_ready`, as the Navigator
+    does), unless ``t_result`` is before that gap.
     """
     aligner = Aligner(mission.config, options)
     rate_hz = imu_rate_hz(mission.imu.t, mission.config.imu_rate_hz)
@@ -1298,10 +1348,13 @@ def align_mission(mission, options: AlignOptions | None = None, *, use_depth: bo
             a.add_heading(t, mission.heading.yaw[i], mission.heading.sigma[i])
         return kind == 0
 
-    for k, (t, kind, i) in enumerate(events):
+    for t, kind, i in events:
         if t_end is not None and t > t_end:
             break
-        if feed(aligner, t, kind, i) and t_end is None and aligner.ready:
-            aligner = _after_joined_gaps(aligner, events[k + 1:], feed, t_result)
+        if feed(aligner, t, kind, i) and t_end is None and aligner.check_ready():
             break
+        if aligner.waiting_after_joined_gaps and t_result is not None and t_result < aligner.joined_gaps[-1][1]:
+            aligner.stop_waiting()      # the state is wanted before the gap: the data after it cannot give it
+            break
+    aligner.stop_waiting()              # the mission ended before the data after the gap were enough
     return aligner.result() if t_result is None else aligner.result_at(t_result)

@@ -1011,7 +1011,9 @@ class Navigator:
             a.add_ping(*payload)
         else:
             getattr(a, "add_position_fix" if stream == "fix" else "add_" + stream)(t, *payload)
-        if stream != "imu" or not a.ready:
+        # across joined IMU gaps it waits for the data after the last of them (Aligner.check_ready), when it can run
+        # the estimator through the data gathered meanwhile: else a held alignment would leave them unaided
+        if stream != "imu" or not a.check_ready(self.options.align_catch_up):
             return []
         return self._start_from_aligner(t)
 
@@ -1092,6 +1094,9 @@ class Navigator:
         """The data ended before ``AlignOptions.duration_s``: align over what there is when it covers
         ``min_duration_s`` (with a warning giving the expected heading accuracy), and run the buffer."""
         a = self.aligner
+        if a.waiting_after_joined_gaps:     # ready across joined IMU gaps; the data after them were too short
+            a.stop_waiting()
+            return self._start_from_aligner(self._align_events[-1][1] if self._align_events else a.result().t)
         if a.missing(end_of_data=True) or not self._align_events:
             return []
         out = self._start_from_aligner(self._align_events[-1][1], end_of_data=True)
