@@ -83,9 +83,9 @@ def test_online_summary_counts_what_it_repaired_in_the_imu_stream(tmp_path, caps
 
 
 def test_online_summary_counts_the_samples_it_used_though_doubted(tmp_path, capsys):
-    """The IMU repeating one reading for 0.6 s in the stream's first second: the Navigator uses the samples and
-    counts them as doubted (a stall it cannot tell there), but neither summary.json nor the printed summary said so
-    (the count was only in the Navigator's info)."""
+    """The IMU repeating one reading for 0.6 s in the stream's first second, then silent 1.5 s: with no second of
+    samples either side the Navigator uses the samples and counts them as doubted (a stall it cannot tell there), but
+    neither summary.json nor the printed summary said so (the count was only in the Navigator's info)."""
     from graphnav import cli
     from graphnav.core.screening import IMU_STALL_UNTOLD
     stream = tmp_path / "s.jsonl"
@@ -93,7 +93,7 @@ def test_online_summary_counts_the_samples_it_used_though_doubted(tmp_path, caps
     records = [json.loads(line) for line in stream.read_text().splitlines()]
     read = next(r for r in records if r.get("type") == "imu" and r["t"] >= 0.2)
     records = [dict(r, f_b=read["f_b"], omega_b=read["omega_b"]) if r.get("type") == "imu" and 0.2 < r["t"] < 0.8
-               else r for r in records]
+               else r for r in records if not (r.get("type") == "imu" and 0.8 <= r["t"] < 2.3)]
     stream.write_text("\n".join(json.dumps(r) for r in records) + "\n")
     cli.main(["online", "--stream", str(stream), "--out", str(tmp_path / "out"), "--no-plots", "--no-progress"])
     summary = json.loads((tmp_path / "out" / "summary.json").read_text())

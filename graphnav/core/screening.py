@@ -626,8 +626,10 @@ class ImuStallTest:
     """The stalled-sensor rule of :func:`imu_stalled` on a live IMU, in stamp order: :meth:`repeats` says whether a
     sample repeats the one before it in every value (the caller holds such samples), :meth:`stalled` whether the run
     it holds is a stall, judged by the rows of the :data:`IMU_STALL_CONTEXT_S` before the reading it repeats (a live
-    stream cannot wait for the second after it; none in the stream's first second), and :meth:`passed` takes each
-    sample that went on."""
+    stream does not wait for the second after it), and :meth:`passed` takes each sample that went on. A run with
+    under that second of samples before its reading (the stream's first second, or just after an IMU gap) is judged
+    by the second of samples after it instead (:meth:`untold_may_stall`, :meth:`stalled_after`): the caller holds
+    the run and that second."""
 
     def __init__(self):
         self._recent: deque[tuple[float, bool]] = deque()     # (stamp s, repeated the one before) of those passed
@@ -647,11 +649,46 @@ class ImuStallTest:
     def stalled(self, t_last: float) -> bool:
         """Whether the held run, repeating the last sample passed up to the stamp ``t_last`` (s), is a stall."""
         t_read, reading = self._last
+        return stalled_run(t_last - t_read, np.asarray(reading, float), self._share_before())
+
+    def _share_before(self) -> float | None:
+        """The share of the samples passed within :data:`IMU_STALL_CONTEXT_S` before the last one that repeat the
+        one before them; None with under that second of samples before it."""
+        t_read = self._last[0]
         around = [r for t, r in self._recent if t >= t_read - IMU_STALL_CONTEXT_S and t < t_read]
-        # under a second of samples before it, nothing tells a stall from an IMU whose rows repeat everywhere (a
-        # noiseless or coarse one from its start): the loaders judge by the rows after it too, a live stream cannot
+        # under a second of samples before it, nothing before tells a stall from an IMU whose rows repeat everywhere
+        # (a noiseless or coarse one from its start): the samples after it tell (:meth:`stalled_after`)
         told = around and self._recent[0][0] <= t_read - IMU_STALL_CONTEXT_S
-        return stalled_run(t_last - t_read, np.asarray(reading, float), sum(around) / len(around) if told else None)
+        return sum(around) / len(around) if told else None
+
+    def untold_may_stall(self) -> bool:
+        """Whether a run repeating the last sample passed, which the samples before it cannot judge (under
+        :data:`IMU_STALL_CONTEXT_S` of them), would be a stall if long enough and the samples after it repeat
+        seldom (not on a reading of a vehicle at rest): such a run is judged by the samples after it
+        (:meth:`stalled_after`)."""
+        return self._share_before() is None and stalled_run(IMU_STALL_MIN_S, np.asarray(self._last[1], float), 0.0)
+
+    def untold_long(self, t_last: float) -> bool:
+        """Whether the held run, repeating the last sample passed up to the stamp ``t_last`` (s), is long enough to be
+        a stall yet not told by the samples before it (:meth:`untold_may_stall`): the samples after it judge."""
+        return self._share_before() is None and stalled_run(t_last - self._last[0], np.asarray(self._last[1], float),
+                                                            0.0)
+
+    @property
+    def reading_stamp(self) -> float:
+        """The stamp (s) of the last sample passed: the reading a held run repeats."""
+        return self._last[0]
+
+    def stalled_after(self, t_last: float, after: list[tuple]) -> bool:
+        """Whether the held run, repeating the last sample passed up to the stamp ``t_last`` (s), is a stall judged
+        by ``after``, the six values of each sample within :data:`IMU_STALL_CONTEXT_S` after it (the first ends the
+        run): the loaders' share of them repeating the one before (:func:`imu_stalled`); none: nothing to tell."""
+        t_read, reading = self._last
+        share = None
+        if after:
+            before = [reading] + list(after[:-1])
+            share = sum(a == b for a, b in zip(after, before)) / len(after)
+        return stalled_run(t_last - t_read, np.asarray(reading, float), share)
 
     def untold(self, t_last: float) -> bool:
         """Whether the samples passed on since the stamp of the reading they repeat, up to ``t_last`` (s), would be a

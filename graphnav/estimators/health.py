@@ -20,6 +20,10 @@ state *before* the measurement is used) and its predicted covariance ``S = H P H
   that has lost track misfits every ping. Entering and leaving the diverged state are warned and kept as
   time intervals (``divergence_intervals``), so a caller can tell whether a given time window was
   affected.
+- **Loss of track on a number**: an estimator whose state or innovation covariance is no longer finite, or whose
+  linear algebra fails (a singular matrix), raises :class:`LostTrack`; its caller reports it with
+  :meth:`NisMonitor.lost`, which enters the diverged state for good (nothing it computes after can be trusted),
+  names the time and the failure, and keeps what was estimated before it.
 - **Re-acquisitions**: an estimator that recovers from a lockout (the EKF re-initialises its velocity
   from the beams or inflates its covariance) reports it with :meth:`NisMonitor.reacquired`, which warns,
   counts and restarts the window.
@@ -45,6 +49,16 @@ from collections import deque
 from dataclasses import dataclass
 
 import numpy as np
+
+
+class LostTrack(ArithmeticError):
+    """An estimator's numbers failed at ``t`` (s): ``why`` (a singular innovation covariance, a state no longer
+    finite). The caller stops the estimator there (:meth:`NisMonitor.lost`) rather than letting a traceback end the
+    run and lose what it had estimated."""
+
+    def __init__(self, t: float, why: str):
+        super().__init__(f"t = {t:.3f} s: {why}")
+        self.t, self.why = float(t), why
 
 
 @dataclass
@@ -117,6 +131,7 @@ class NisMonitor:
         self._since_reset = 0                    # measurements since the last re-acquisition/divergence
         self.n_warnings = 0
         self.first_event: str | None = None
+        self.lost_at: float | None = None        # the time (s) the estimator lost track on a number (:meth:`lost`)
 
     # --- input ------------------------------------------------------------------------------------
     def record(self, t: float, nis: float, dof: int, accepted: bool = True) -> None:
@@ -162,7 +177,7 @@ class NisMonitor:
             elif len(self._recent) == o.window and ratio > o.divergence_ratio:
                 self._enter(t, f"median NIS per dof {ratio:.3g} over the last {o.window} measurements exceeds "
                                f"{o.divergence_ratio:g}")
-        elif (self._since_reset >= o.recover_after and self.rejection_run == 0
+        elif (self.lost_at is None and self._since_reset >= o.recover_after and self.rejection_run == 0
               and self._ratio_since_reset() <= o.divergence_ratio):
             self.diverged = False
             self.intervals[-1][1] = float(t)
@@ -178,6 +193,16 @@ class NisMonitor:
         self._recent.clear()
         self._since_reset = 0
         self._warn(t, f"re-acquired after a lockout: {how}")
+
+    def lost(self, t: float, why: str) -> None:
+        """The estimator lost track at time t (s) on a number (``why``: :class:`LostTrack`): diverged from then on,
+        for good, warned."""
+        self.lost_at = float(t)
+        if self.diverged:
+            self.intervals[-1][2] = f"lost track: {why}"
+            self._warn(t, f"lost track: {why}")
+        else:
+            self._enter(t, f"lost track: {why}")
 
     # --- state ------------------------------------------------------------------------------------
     def window_ratio(self) -> float:
@@ -226,6 +251,7 @@ class NisMonitor:
             "n_blocks_below_band": self.n_blocks_low,
             "window": o.window, "band_prob": o.band_prob, "divergence_ratio": o.divergence_ratio,
             "first_event": self.first_event,
+            **({"lost_track_at": self.lost_at} if self.lost_at is not None else {}),
         }
 
 

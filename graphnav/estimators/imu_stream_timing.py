@@ -171,6 +171,8 @@ class ImuPeriod:
         self._cycle_s = cycle if cycle > measured else self._cycle_s     # stamps in bursts
         if abs(measured - self.configured_s) > IMU_RATE_TOLERANCE * self.configured_s:
             self.period_s = measured
+            if not cycle > measured:    # no bursts: nor is the configured period a cycle (kept, a 0.5 s loss of
+                self._cycle_s = measured    # 100 Hz configured at 4 Hz stayed under 2.5 of its 0.25 s, unsaid)
             warnings.warn(f"imu: runs at {1 / measured:.4g} Hz (from its first {len(self._steps)} steps, "
                           f"{1e3 * measured:.4g} ms), not the configured imu_rate_hz {1 / self.configured_s:g} Hz: "
                           f"gaps are judged against {1 / measured:.4g} Hz", RuntimeWarning, stacklevel=6)
@@ -640,6 +642,12 @@ class PacketStamps:
         if cycle > period and limit < period:
             self.period_s, self._limit = period, limit
             self._decided(round(cycle / period), cycle)
+        elif abs(period - self.configured_s) > IMU_RATE_TOLERANCE * self.configured_s:
+            # no packets, at another rate than configured: the steps are judged against the rate the data show, as
+            # the loaders do (calibration.preparation; the keyframer's ImuPeriod warns). Against 10 Hz each 10 ms
+            # step of a 100 Hz IMU was one within a packet: decided again at every step (_reopen), a 0.5 s loss made
+            # packets, its samples restamped 12 ms apart and no gap said
+            self.configured_s = period
 
 
 class LiveClock:

@@ -76,7 +76,8 @@ from graphnav.estimators.coasting import CoastingMonitor, SigmaMonitor
 from graphnav.estimators.ekf import EkfOptions
 from graphnav.estimators.graph.builder import preintegration_gravity, preintegration_params
 from graphnav.estimators.graph.options import GraphOptions
-from graphnav.estimators.health import epoch_health
+from graphnav.estimators.graph.incremental import is_indeterminant
+from graphnav.estimators.health import LostTrack, epoch_health
 from graphnav.estimators.history import run_sigma_of
 from graphnav.estimators.imu_stream_timing import PacketStamps
 from graphnav.estimators.keyframes import KeyframeOptions, Keyframer, stamp_of
@@ -209,10 +210,16 @@ class Navigator:
         self._stall_refused: list[float] = []       # stamps of the stalled run being refused, s
         self._stall_cleared = -math.inf             # held samples let go (no stall) up to this stamp, s
         self._untold_read = -math.inf       # the reading of the last run doubted as a stall not told (s)
+        #: samples after a held run the samples before it could not judge (the stream's first second, right after an
+        #: IMU gap), held with it while they judge it (ImuStallTest.stalled_after); None when not judging
+        self._stall_after: list[tuple[float, tuple, tuple]] | None = None
+        self._stall_judged = -math.inf      # the reading of the last such run the samples after it found no stall (s)
         #: samples used despite a doubt, per stream and reason (e.g. a stall in the stream's first second)
         self.doubted: dict[str, dict[str, int]] = {}
         self._nudged = {k: NudgedCopies() for k in STREAM_ORDER}     # samples sent again a moment later
         self._latest: EpochEstimate | None = None
+        #: (t s, why) where the estimator lost track on a number (:meth:`_lose_track`): no estimate after it
+        self.lost_track: tuple[float, str] | None = None
         self._prop: tuple | None = None             # cached propagation for state_at
         self._pim_params = preintegration_params(config, graph_options or GraphOptions())
         self._earth = EarthModel.from_config(config)
@@ -808,8 +815,8 @@ class Navigator:
                         out += self._process(kfs)
                 else:
                     out += self._dispatch("imu", t, (f, w))
-            elif held and until == math.inf:        # the data ended in a run that was no stall
-                self._let_held_go()
+            elif held and until == math.inf:        # the data ended in a held run, or in the second after one
+                self._end_held_run()
             elif heap and heap[0][0] <= until and not held:
                 t, _, _, stream, payload = heapq.heappop(heap)
                 self._stamps[stream].discard(t)
@@ -823,11 +830,21 @@ class Navigator:
         repeating the sample before it (:class:`~graphnav.core.screening.ImuStallTest`, the loaders' rule): held
         while the run is shorter than a stall, refused once it is one (a run no length makes one, a reading of a
         vehicle at rest, goes on at once: held, it delayed every estimate as long as the vehicle rested); a sample
-        ending a held run that was no stall comes back after it, to go on in stamp order."""
+        ending a held run that was no stall comes back after it, to go on in stamp order. A run as long as a stall
+        with under a second of samples before its reading is held on with the second after it, which judges it
+        (:meth:`_judge_by_after`)."""
         if t <= self._stall_cleared:
             return False
-        held, refused = self._stall_held, self._stall_refused
-        if self._stall.repeats(f + w) and (held or refused or self._stall.may_stall()):
+        held, refused, after = self._stall_held, self._stall_refused, self._stall_after
+        if after is not None:
+            if t - held[-1][0] <= IMU_STALL_CONTEXT_S:
+                after.append((t, f, w))
+            else:
+                self._imu_q.appendleft((t, f, w))
+                self._judge_by_after()
+            return True
+        if self._stall.repeats(f + w) and (held or refused or self._stall.may_stall()
+                                           or self._stall.untold_may_stall()):
             self._prop = None
             if refused:
                 refused.append(t)
@@ -841,32 +858,65 @@ class Navigator:
         if not held:
             return False
         self._imu_q.appendleft((t, f, w))
-        self._let_held_go()
+        if self._stall.untold_long(held[-1][0]):
+            self._stall_after = []      # this sample first, when within the second after the run
+        else:
+            self._let_held_go()
         return True
+
+    def _judge_by_after(self) -> None:
+        """A held run as long as a stall with under a second of samples before its reading (the stream's first
+        second, right after an IMU gap) judged by the samples of the second after it, as the loaders judge
+        (:meth:`ImuStallTest.stalled_after`): refused and warned as a stall, or let go; the samples after it go back
+        to the front of the reorder buffer, to be judged in turn. With none after it (the data ended, an IMU gap),
+        nothing tells: let go, and doubted (:meth:`_doubt_untold_stall`)."""
+        held, after = self._stall_held, self._stall_after
+        self._stall_after = None
+        self._imu_q.extendleft(reversed(after))
+        if self._stall.stalled_after(held[-1][0], [f + w for _, f, w in after]):
+            self._stall_refused += [x[0] for x in held]
+            held.clear()
+            self._warn_stall(f"the reading at t = {self._stall.reading_stamp:.3f} s repeated "
+                             f"{self._untold_where(self._stall.reading_stamp)}, judged by the {IMU_STALL_CONTEXT_S:g} "
+                             "s of samples after it as the loaders do")
+            return
+        if after:
+            self._stall_judged = self._stall.reading_stamp
+        self._let_held_go()
+
+    def _end_held_run(self) -> None:
+        """The data ended in a held run that was no stall, or in the second after one the samples after it judge."""
+        if self._stall_after is not None:
+            self._judge_by_after()
+        else:
+            self._let_held_go()
 
     def _doubt_untold_stall(self, t: float) -> None:
         """Count as doubted (and warn once per run) the IMU samples repeating one reading as long as a stall while the
         stream has under a second of samples before that reading (:meth:`ImuStallTest.untold`: the stream's first
-        second, or just after an IMU gap): the loaders judge
-        such a run by the second after it, which a live stream would have to hold its start for; used, not
-        refused, as an IMU whose readings repeat from its start would be."""
-        if not self._stall.untold(t):
+        second, or just after an IMU gap) and no sample within a second after the run to judge it by
+        (:meth:`_judge_by_after`: the data ended, an IMU gap); used, not refused, as the loaders keep a run with
+        nothing around it to tell it from an IMU whose readings repeat from its start."""
+        if not self._stall.untold(t) or self._stall.run[0] == self._stall_judged:
             return
         t_read, n = self._stall.run
         counts = self.doubted.setdefault("imu", {})
         if t_read != self._untold_read:
             self._untold_read = t_read
-            # the other way to have under a second of samples before it: an IMU gap just before the reading
-            where = (f"in the stream's first {IMU_STALL_CONTEXT_S:g} s" if t_read - self._screen.oldest
-                     < IMU_STALL_CONTEXT_S else f"right after an IMU gap (under {IMU_STALL_CONTEXT_S:g} s of IMU "
-                     "samples before it)")
             warnings.warn(f"navigator: imu: the reading at t = {t_read:.3f} s is repeated in every value for "
-                          f"{t - t_read:.3f} s or more {where}: a stalled IMU cannot be told there from one whose "
-                          "readings repeat from its start (no second of samples before it); used, counted as "
-                          "doubted (check the IMU driver if the vehicle moved)", RuntimeWarning, stacklevel=4)
+                          f"{t - t_read:.3f} s or more {self._untold_where(t_read)}: a stalled IMU cannot be told "
+                          "there from one whose readings repeat from its start (no second of samples before it, "
+                          "none within a second after it); used, counted as doubted (check the IMU driver if the "
+                          "vehicle moved)", RuntimeWarning, stacklevel=4)
         else:
             n = 1
         counts[IMU_STALL_UNTOLD] = counts.get(IMU_STALL_UNTOLD, 0) + n
+
+    def _untold_where(self, t_read: float) -> str:
+        """Where a reading at ``t_read`` (s) has under a second of IMU samples before it."""
+        # the other way to have under a second of samples before it: an IMU gap just before the reading
+        return (f"in the stream's first {IMU_STALL_CONTEXT_S:g} s" if t_read - self._screen.oldest < IMU_STALL_CONTEXT_S
+                else f"right after an IMU gap (under {IMU_STALL_CONTEXT_S:g} s of IMU samples before it)")
 
     def _let_held_go(self) -> None:
         """The held run was no stall: back to the front of the reorder buffer, to go on unjudged."""
@@ -875,8 +925,9 @@ class Navigator:
         self._stall_cleared = held[-1][0]
         held.clear()
 
-    def _warn_stall(self) -> None:
-        """Count and warn about the stalled run refused (the estimator then bridges it as a gap, as the loaders')."""
+    def _warn_stall(self, how: str = "") -> None:
+        """Count and warn about the stalled run refused (the estimator then bridges it as a gap, as the loaders');
+        ``how``: how it was judged, when not by the second before it."""
         refused = self._stall_refused
         if not refused:
             return
@@ -884,8 +935,9 @@ class Navigator:
         counts = self.refused.setdefault("imu", {})
         counts[IMU_STALLED] = counts.get(IMU_STALLED, 0) + n
         self.samples_refused["imu"] = self.samples_refused.get("imu", 0) + n
+        how = f" ({how})" if how else ""
         warnings.warn(f"navigator: {n} imu sample(s) refused ({n} {IMU_STALLED}) from t = {refused[0]:.3f} to "
-                      f"{refused[-1]:.3f} s; they are not used", RuntimeWarning, stacklevel=4)
+                      f"{refused[-1]:.3f} s{how}; they are not used", RuntimeWarning, stacklevel=4)
         refused.clear()
 
     def _imu_spike(self, t: float, f: tuple, w: tuple) -> bool:
@@ -930,7 +982,18 @@ class Navigator:
     def _process(self, kfs) -> list[EpochEstimate]:
         out = []
         for kf in kfs:
-            est = self.backend.process(kf)
+            if self.lost_track is not None:
+                break
+            try:
+                est = self.backend.process(kf)
+                if not (np.all(np.isfinite(est.p_n)) and np.all(np.isfinite(est.v_n))):
+                    raise LostTrack(kf.t, f"its estimate is not finite (velocity {np.linalg.norm(est.v_n):.3g} m/s)")
+            except (LostTrack, np.linalg.LinAlgError, RuntimeError) as exc:
+                if isinstance(exc, RuntimeError) and not is_indeterminant(exc):
+                    raise
+                self._lose_track(kf.t, exc.why if isinstance(exc, LostTrack) else
+                                 f"{type(exc).__name__}: {str(exc).strip().splitlines()[0]}")
+                break
             self.coasting.update(est.t, self.backend.last_aided, est.cov_v_n, self.backend.last_completed)
             self.sigma.update(est.t, est.v_n, est.cov_v_n)
             est.health, est.health_why = epoch_health(self.backend.monitor, self.coasting, self.sigma)
@@ -944,6 +1007,25 @@ class Navigator:
                 if recent:
                     self._advance_propagation(self._latest, recent, recent[-1][0])
         return out
+
+    def _lose_track(self, t: float, why: str) -> None:
+        """The estimator's numbers failed at ``t`` (s) (:class:`~graphnav.estimators.health.LostTrack`, a singular
+        matrix, a solver that failed twice): it takes nothing more; the estimates before stand, and the run ends
+        diverged (said by its monitor, :meth:`~graphnav.estimators.health.NisMonitor.lost`, and here)."""
+        self.lost_track = (float(t), why)
+        self._say_lost_track()
+
+    def _say_lost_track(self) -> None:
+        """Flag and warn about the loss of track on the monitor that publishes the health (once per monitor)."""
+        t, why = self.lost_track
+        monitor = self.backend.monitor
+        if monitor is None or monitor.lost_at is not None:
+            return
+        monitor.lost(t, why)
+        made = f" (to t = {self._latest.t:.3f} s)" if self._latest is not None else ""
+        warnings.warn(f"navigator: {self.backend_name} lost track at t = {t:.3f} s ({why}); it takes no more data: "
+                      f"the {self.n_estimates} estimate(s) made{made} stand, none follows", RuntimeWarning,
+                      stacklevel=2)
 
     # --- initialisation -----------------------------------------------------------------------------
     def _refuse_rehearsal(self) -> None:
@@ -1087,6 +1169,8 @@ class Navigator:
                 self._dispatch(stream, t_, payload)
         self._latest, self.n_estimates, self._prop = latest, n_estimates, None
         self.coasting, self.sigma, self.backend.monitor = published
+        if self.lost_track is not None:     # said on the monitor that goes on, unsilenced
+            self._say_lost_track()
         for k, n in fallbacks.items():      # the completer's pings of the window are counted once
             self._fallbacks_before[k] = self._fallbacks_before.get(k, 0) + self._completer.fallbacks[k] - n
 

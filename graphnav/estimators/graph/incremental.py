@@ -33,7 +33,7 @@ from graphnav.estimators.graph.builder import (
 )
 from graphnav.estimators.graph.marginals import keyframe_marginals
 from graphnav.estimators.graph.options import GraphOptions
-from graphnav.estimators.health import NisMonitor
+from graphnav.estimators.health import LostTrack, NisMonitor
 from graphnav.estimators.types import EpochEstimate, InitialState
 from graphnav.factors import N_DVL_ERRORS
 
@@ -316,7 +316,15 @@ class _IncrementalGraph:
         dz = np.concatenate([g.y - p.h for g, p in zip(groups, predicted)])
         H = np.vstack([p.d_v() for p in predicted])
         S = H @ P_v @ H.T + np.diag(np.concatenate([g.sigma for g in groups]) ** 2)
-        self.health.record(kf.t, float(dz @ np.linalg.solve(S, dz)), len(dz))
+        if not (np.all(np.isfinite(dz)) and np.all(np.isfinite(S))):
+            raise LostTrack(kf.t, f"the DVL innovation at the predicted state is not finite (predicted velocity "
+                            f"{np.linalg.norm(v_n):.3g} m/s)")
+        try:
+            nis = float(dz @ np.linalg.solve(S, dz))
+        except np.linalg.LinAlgError as exc:
+            raise LostTrack(kf.t, f"the DVL innovation covariance cannot be inverted ({exc}; predicted velocity "
+                            f"{np.linalg.norm(v_n):.3g} m/s)") from exc
+        self.health.record(kf.t, nis, len(dz))
 
     def estimate(self) -> EpochEstimate:
         """The estimate of the newest updated keyframe."""
