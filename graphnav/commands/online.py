@@ -154,9 +154,13 @@ class EpochSink:
 
 def _imu_repairs(info: dict) -> dict:
     """What the Navigator did to the IMU stream as it came, in samples: gaps bridged (``gaps``), rows of zeros, the
-    burst a stream started with (left out of its rate) and samples restamped from packets onto the IMU's period."""
-    return {"gaps": info.get("imu_gaps", 0), "zero_rows": info.get("imu_zero_rows", 0),
-            "start_burst": info.get("imu_start_burst", 0), "restamped": info.get("imu_restamped", 0)}
+    burst a stream started with (left out of its rate) and samples restamped from packets onto the IMU's period; the
+    gaps in every stream judged a clock step or a loss, by verdict, where there were any."""
+    repairs = {"gaps": info.get("imu_gaps", 0), "zero_rows": info.get("imu_zero_rows", 0),
+               "start_burst": info.get("imu_start_burst", 0), "restamped": info.get("imu_restamped", 0)}
+    if info.get("gaps_in_every_stream"):
+        repairs["gaps_in_every_stream"] = dict(info["gaps_in_every_stream"])
+    return repairs
 
 
 def update_timing(update_s) -> dict:

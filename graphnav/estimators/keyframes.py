@@ -204,6 +204,9 @@ class Keyframer:
         self._heading: deque = deque(maxlen=64)
         self._last_fix_t = -math.inf
         self._gaps: list[ImuGap] = []
+        #: (start, end) stamps (s) of stretches no time passed in for the vehicle (a step of the clock every stream
+        #: shares, :meth:`join_step`): the IMU segments over them integrate nothing
+        self._dead: list[tuple[float, float]] = []
         #: (start, end) stamps (s) of the IMU gaps already warned about (a keyframer that replays a Navigator's
         #: alignment buffer is handed those of the one before it, which said them)
         self.said_gaps: set[tuple[float, float]] = set()
@@ -354,6 +357,23 @@ class Keyframer:
         out += self._on_sample(*new)
         return out
 
+    def join_step(self, t: float, f_b, omega_b) -> list[Keyframe]:
+        """The IMU sample at stamp t (s) after a forward step of the clock every stream shares (decided by the
+        Navigator, :mod:`graphnav.estimators.clock_steps`): joined to the sample before it one IMU period on, no
+        time passing for the vehicle over the rest of the step (nothing bridged, nothing turned); the IMU-only
+        keyframes through the DVL's silence count on from the vehicle's time."""
+        t0 = self._samples[-1][0]
+        dead = t - t0 - self.imu_period.period_s
+        if dead > 0:
+            self._dead.append((t - dead, t))
+            if self._anchor is not None:
+                self._anchor += dead
+        return self._on_sample(t, f_b, omega_b)
+
+    def live_time(self, t0: float, t1: float) -> float:
+        """The time that passed for the vehicle from stamp t0 to t1 (s): ``t1 - t0`` less the clock steps inside."""
+        return t1 - t0 - sum(max(0.0, min(t1, b) - max(t0, a)) for a, b in self._dead)
+
     def _on_sample(self, t: float, f: tuple, w: tuple, bridged: bool = False) -> list[Keyframe]:
         self._n_imu += 1
         if self._imu_buffer is not None:
@@ -417,15 +437,19 @@ class Keyframer:
         stamps = [x[0] for x in part]
         starts = [max(ti, t_open) for ti in stamps[:j + 1]]
         ends = [min(te, t) for te in stamps[1:j + 1]] + [t]
-        keep = [i for i in range(j + 1) if ends[i] > starts[i]]
+        live = [self.live_time(a, b) for a, b in zip(starts, ends)] if self._dead else \
+            [ends[i] - starts[i] for i in range(j + 1)]
+        keep = [i for i in range(j + 1) if live[i] > 0]
         f = [part[i][1] for i in keep]
         w = [part[i][2] for i in keep]
-        dt = [ends[i] - starts[i] for i in keep]
+        dt = [live[i] for i in keep]
         lag = [starts[i] - stamps[i] for i in keep]
         del samples[:j]
         var_v, var_att = gap_variances(self._gaps, t_open, t) if self._gaps else (0.0, 0.0)
         if self._gaps:
             self._gaps = [g for g in self._gaps if g.t_end > t]
+        if self._dead:
+            self._dead = [d for d in self._dead if d[1] > t]
         if not dt:
             return ImuSegments(np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0), np.zeros(0), var_v, var_att)
         return ImuSegments(np.array(f), np.array(w), np.array(dt), np.array(lag), var_v, var_att)

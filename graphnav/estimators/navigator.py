@@ -42,6 +42,9 @@ What happens to a sample:
 4. **Keyframes** (:mod:`graphnav.estimators.keyframes`): at every ping, every decimated position fix and, through DVL
    gaps, every ``imu_keyframe_interval_s``; each closes as soon as the IMU has passed its stamp (no look-ahead)
    and goes to the backend (:mod:`graphnav.estimators.backends`: ``"fixed-lag"``, ``"isam2"`` or ``"ekf"``).
+   A gap of 1 s or more in every stream at once is held until the IMU samples after it tell a step of the clock the
+   streams share (joined with no time passed) from a loss of every sensor (bridged), or say they cannot
+   (:mod:`graphnav.estimators.clock_steps`); meanwhile :meth:`Navigator.state_at` has no sample after the gap.
 
 Every ``add_*`` returns the estimates it completed (usually none; one per closed keyframe).
 :meth:`Navigator.estimate` is the latest of them, :meth:`Navigator.state_at` propagates it with every IMU sample
@@ -72,6 +75,7 @@ from graphnav.core.screening import (CLOCK_JUMP_CONFIRM_S, EXACT_COPY, IMU_STALL
                                      NudgedCopies, RecentRepeats, StreamScreen, clock_jump_words)
 from graphnav.estimators.align import AlignOptions
 from graphnav.estimators.backends import BACKENDS, make_backend
+from graphnav.estimators.clock_steps import AFTER_GAP_S, JUDGE_WINDOW_S, JUDGED_GAP_MIN_S, judge_gap
 from graphnav.estimators.coasting import CoastingMonitor, SigmaMonitor
 from graphnav.estimators.ekf import EkfOptions
 from graphnav.estimators.graph.builder import preintegration_gravity, preintegration_params
@@ -235,6 +239,16 @@ class Navigator:
         self.received: dict[str, int] = {}          # samples given to add_* per stream
         self.samples_refused: dict[str, int] = {}   # samples refused per stream, whatever the reason
         self.n_estimates = 0
+        # a gap in every stream at once, judged a step of their clock or a loss by the IMU samples either side
+        # (:mod:`graphnav.estimators.clock_steps`): the last JUDGE_WINDOW_S of IMU samples fed, the gap being judged
+        # ({"after": IMU samples after it, "events": every sample released since, held}), the oldest stamp of
+        # another stream released since the last IMU sample
+        self._imu_before: deque = deque()
+        self._judging: dict | None = None
+        self._other_since_imu = math.inf
+        #: gaps in every stream judged, by verdict (step / loss / undecided)
+        self.gaps_judged: dict[str, int] = {}
+        self._gap_doubt: str | None = None     # an undecided gap: why the estimates after it are degraded
         #: live pure-inertial check (:mod:`graphnav.estimators.coasting`), created when the estimator starts
         self.coasting: CoastingMonitor | None = None
         #: live check of the claimed velocity sigma (:class:`~graphnav.estimators.coasting.SigmaMonitor`), likewise
@@ -435,6 +449,8 @@ class Navigator:
         self._check_refused()
         out = self._queue_packet(self._packets.flush(self._released))
         out += self._release(math.inf)
+        if self._judging is not None:        # the data ended within the window that judges a gap
+            out += self._judge_gap()
         self._warn_stall()
         if self.backend is None and self.aligner is not None:
             out += self._align_at_end()
@@ -509,7 +525,7 @@ class Navigator:
         _, pim, upto, j = prop
         while j + 1 < len(recent) and recent[j + 1][0] <= t:
             if recent[j + 1][0] > upto:
-                pim.integrateMeasurement(recent[j][1], recent[j][2], recent[j + 1][0] - upto)
+                pim.integrateMeasurement(recent[j][1], recent[j][2], self.keyframer.live_time(upto, recent[j + 1][0]))
                 upto = recent[j + 1][0]
             j += 1
         prop[2], prop[3] = upto, j
@@ -535,6 +551,8 @@ class Navigator:
                 "velocity_superseded": stats.velocity_superseded, "beams_superseded": stats.beams_superseded}
         if self.notes:
             info["notes"] = {k: list(v) for k, v in self.notes.items()}
+        if self.gaps_judged:
+            info["gaps_in_every_stream"] = dict(self.gaps_judged)
         if self.doubted:
             info["doubted"] = {k: dict(v) for k, v in self.doubted.items()}
         if stats.imu_window_missing is not None:
@@ -810,9 +828,7 @@ class Navigator:
                 self._stall.passed(t, f + w)
                 self._doubt_untold_stall(t)
                 if self.backend is not None:
-                    kfs = self.keyframer.add_imu(t, f, w)
-                    if kfs:
-                        out += self._process(kfs)
+                    out += self._feed_imu(t, f, w)
                 else:
                     out += self._dispatch("imu", t, (f, w))
             elif held and until == math.inf:        # the data ended in a held run, or in the second after one
@@ -973,11 +989,76 @@ class Navigator:
                 while events[0][1] < t - self.options.align_buffer_s:
                     events.popleft()
             return self._align(stream, t, payload)
+        if stream == "imu":
+            return self._feed_imu(t, *payload)
+        if self._judging is not None:
+            self._judging["events"].append((stream, t, payload))
+            return []
+        self._other_since_imu = min(self._other_since_imu, t)
         if stream in PING_STREAMS:
             kfs = self.keyframer.add_ping(*payload)
         else:
             kfs = getattr(self.keyframer, "add_" + stream)(t, *payload)
         return self._process(kfs) if kfs else []
+
+    def _feed_imu(self, t: float, f: tuple, w: tuple) -> list[EpochEstimate]:
+        """An IMU sample released to the running estimator. After a gap of at least ``JUDGED_GAP_MIN_S`` in which no
+        other stream has a sample either, it and everything released after it are held until ``JUDGE_WINDOW_S`` of
+        IMU samples past the gap tell a step of the clock from a loss (:meth:`_judge_gap`)."""
+        judging, before = self._judging, self._imu_before
+        other, self._other_since_imu = self._other_since_imu, math.inf
+        if judging is None and before and t - before[-1][0] >= JUDGED_GAP_MIN_S and other >= t - AFTER_GAP_S:
+            judging = self._judging = {"after": [], "events": []}
+        if judging is not None:
+            judging["after"].append((t, f, w))
+            judging["events"].append(("imu", t, (f, w)))
+            return self._judge_gap() if t - judging["after"][0][0] >= JUDGE_WINDOW_S else []
+        before.append((t, f, w))
+        if before[0][0] < t - JUDGE_WINDOW_S:
+            before.popleft()
+        kfs = self.keyframer.add_imu(t, f, w)
+        return self._process(kfs) if kfs else []
+
+    def _judge_gap(self) -> list[EpochEstimate]:
+        """Decide the gap held (:func:`~graphnav.estimators.clock_steps.judge_gap`), say and count the verdict, and
+        feed what was held: a step joined with no time passed (:meth:`Keyframer.join_step`), a loss bridged as any
+        IMU gap; undecided, bridged as a loss and every estimate after it degraded, saying why."""
+        judging, self._judging = self._judging, None
+        before, after = list(self._imu_before), judging["after"]
+        period = self.keyframer.imu_period.period_s
+        verdict = judge_gap(before, after, period)
+        kind = "undecided" if verdict is None else verdict.kind
+        why = verdict.why if verdict is not None else (f"under {JUDGE_WINDOW_S:g} s of IMU samples on a side of it "
+                                                         "to judge by")
+        self.gaps_judged[kind] = self.gaps_judged.get(kind, 0) + 1
+        (t0, _, w0), (t1, _, w1) = before[-1], after[0]
+        tau = t1 - t0
+        # what a loss bridges: the rates either side interpolated over the gap
+        turn_deg = math.degrees(float(np.linalg.norm(0.5 * (np.asarray(w0) + np.asarray(w1)) * tau)))
+        head = f"navigator: no stream has a sample for {tau:.3f} s after t = {t0:.3f} s"
+        if kind == "step":
+            text = (f"{head}: taken as a step of the clock they share ({why}); joined with no time passed (its "
+                    f"stamps from t = {t1:.3f} s on are {tau - period:.3f} s ahead of the vehicle's time)")
+        elif kind == "loss":
+            text = f"{head}: taken as a loss of every sensor ({why}); bridged"
+        else:
+            text = (f"{head}: a step of the clock they share cannot be told from a loss of every sensor ({why}); "
+                    f"bridged as a loss, a turn of {turn_deg:.1f} deg a step would not have made; the estimates "
+                    "after it are degraded")
+            self._gap_doubt = (f"the gap of {tau:.3f} s in every stream after t = {t0:.3f} s may be a step of their "
+                               f"clock, not a loss (a turn of {turn_deg:.1f} deg bridged)")
+        warnings.warn(f"{text} (counted in info['gaps_in_every_stream'])", RuntimeWarning, stacklevel=5)
+        self._imu_before.clear()
+        out = []
+        for stream, t, payload in judging["events"]:
+            if stream != "imu":
+                out += self._dispatch(stream, t, payload)
+                continue
+            kfs = self.keyframer.join_step(t, *payload) if kind == "step" and t == t1 else \
+                self.keyframer.add_imu(t, *payload)
+            self._imu_before.append((t, *payload))
+            out += self._process(kfs) if kfs else []
+        return out
 
     def _process(self, kfs) -> list[EpochEstimate]:
         out = []
@@ -997,6 +1078,9 @@ class Navigator:
             self.coasting.update(est.t, self.backend.last_aided, est.cov_v_n, self.backend.last_completed)
             self.sigma.update(est.t, est.v_n, est.cov_v_n)
             est.health, est.health_why = epoch_health(self.backend.monitor, self.coasting, self.sigma)
+            if self._gap_doubt is not None:     # an undecided gap: never "ok" after it, and said why
+                est.health = "degraded" if est.health == "ok" else est.health
+                est.health_why = "; ".join(w for w in (est.health_why, self._gap_doubt) if w)
             out.append(est)
         if out:
             self._latest = out[-1]
@@ -1085,6 +1169,8 @@ class Navigator:
         options = self._estimator_options()
         self.coasting = CoastingMonitor(self.backend.name, options.max_pure_inertial_s)
         self.sigma = SigmaMonitor(self.backend.name, options.health)
+        self._imu_before.clear()
+        self._judging, self._other_since_imu = None, math.inf
         return self._process(self.keyframer.start(float(initial.t)))
 
     def _align(self, stream: str, t: float, payload: tuple) -> list[EpochEstimate]:
@@ -1141,6 +1227,8 @@ class Navigator:
         events.clear()
         for stream, t_, payload in replayed:
             out += self._dispatch(stream, t_, payload)
+        if self._judging is not None:       # the buffer ended within the window that judges a gap
+            out += self._judge_gap()
         self._rerun_without_alignment_prior(al, replayed, warned_period, imu_period)
         return out
 
@@ -1155,7 +1243,7 @@ class Navigator:
         the first run and are not repeated, and the health goes on from the first run's monitors: the estimates
         published through the window are that run's (the second starts from a wide prior, whose sigma over the
         window would have made a clean run "degraded")."""
-        latest, n_estimates = self._latest, self.n_estimates
+        latest, n_estimates, judged = self._latest, self.n_estimates, dict(self.gaps_judged)
         published = (self.coasting, self.sigma, self.backend.monitor)
         fallbacks = dict(getattr(self._completer, "fallbacks", {}))
         self.keyframer = Keyframer(self.config, self.options.keyframes, self._completer)
@@ -1167,7 +1255,10 @@ class Navigator:
             self._start(initial_from_alignment(al, self.options.align, heading_sigma_factor=factor))
             for stream, t_, payload in replayed:
                 self._dispatch(stream, t_, payload)
-        self._latest, self.n_estimates, self._prop = latest, n_estimates, None
+            if self._judging is not None:
+                self._judge_gap()
+        # the gaps were judged (and counted) by the first run, on the same samples
+        self._latest, self.n_estimates, self._prop, self.gaps_judged = latest, n_estimates, None, judged
         self.coasting, self.sigma, self.backend.monitor = published
         if self.lost_track is not None:     # said on the monitor that goes on, unsilenced
             self._say_lost_track()
