@@ -21,6 +21,7 @@ from graphnav.core.dvl import DvlGeometry
 from graphnav.core.errors import DataError
 from graphnav.io import paths, pd0
 from graphnav.io.dvl_files import read_dvl
+from graphnav.io.inspect import describe
 
 pytest.importorskip("mhkit.dolfyn", reason="graphnav[pd0] not installed (scripts/setup_env.sh installs it)")
 
@@ -692,6 +693,34 @@ def test_a_dvl_clock_that_stops_and_runs_on_from_where_it_stood_is_said_to_have_
     assert "(a CSV of DVL velocities: t, vx, vy, vz)" in note[0]
 
 
+def test_a_second_recording_days_later_whose_numbers_run_on_is_not_dead_reckoned_across(pd0_dir, tmp_path):
+    """winriver01.PD0 with itself joined behind 3 days later, its ensemble numbers running on (486-747, as an
+    instrument that stopped pinging and went on, or a clock set on): no join the numbers show, read as one log
+    with a 259200 s gap. `smooth --data` alone refuses to dead-reckon across it, naming the gap and the ensemble
+    and byte to cut before, and writes no track; it bridged the gap, 366 km "travelled", warned only as a guess."""
+    src = pd0_dir / "winriver01.PD0"
+    raw, spans, clock = src.read_bytes(), pd0.scan_pd0(src).spans, _clock(src)
+    second = _retimed(src, clock + clock[-1] - clock[0] + 3 * 86400.0)
+    for k, ens in enumerate(second):        # ensemble numbers 486 on: the variable leader's number, checksum again
+        leader = next(o for o in struct.unpack_from(f"<{ens[5]}H", ens, 6)
+                      if struct.unpack_from("<H", ens, o)[0] == 0x0080)
+        struct.pack_into("<H", ens, leader + 2, 486 + k)
+        struct.pack_into("<H", ens, len(ens) - 2, sum(ens[:-2]) & 0xFFFF)
+    path = tmp_path / src.name
+    path.write_bytes(raw + b"".join(second))
+    said = io.StringIO()
+    with warnings.catch_warnings(), contextlib.redirect_stderr(said):
+        warnings.simplefilter("ignore")
+        assert cli.main(["smooth", "--data", str(path), "--no-plots", "--out", str(tmp_path / "out")]) != 0
+    assert not (tmp_path / "out" / "trajectory.csv").exists()           # no track bridging the 3 days
+    assert (f"1 gap(s) without a velocity over ground longer than 1.0 h: 3.0 day(s) from ensemble 485 (byte "
+            f"{spans[-1][0]}) at t = {clock[-1]:.3f} s ({pd0._utc(clock[-1])} UTC) to ensemble 486 (byte {len(raw)})"
+            ) in said.getvalue()
+    assert f"dead-reckon each side on its own: cut the log before ensemble 486 (byte {len(raw)})" in said.getvalue()
+    described = describe(path)                  # graphnav info says it before smooth is run
+    assert "cut the file at its gap(s) of over an hour first" in described["use"]
+    assert [n for n in described["streams"]["dvl"]["notes"] if n.startswith("1 gap(s) without a velocity over ground")]
+
 def test_a_stall_of_few_pings_on_a_clock_slower_than_the_pings_is_spread_up_to_its_jump(pd0_dir, tmp_path):
     """winriver01.PD0 retimed to 4 Hz pings on a clock of whole seconds (4 pings a tick), its clock standing still
     for 12 pings (3 s, from the 101st) and then jumping on to the right time: the 12 pings are spread up to the jump
@@ -765,3 +794,25 @@ def test_a_stall_across_the_pause_between_bursts_of_irregular_size_is_placed_by_
     assert [s for s in said if f"the 5 pings at {pd0._utc(recorded[last])} stood across a pause between bursts" in s
             and f"which of them came after the pause cannot be told from bursts of irregular size, so they are put "
             f"on from its time and those after the pause are up to {early:.1f} s early" in s]
+
+
+def test_a_stall_across_two_pauses_between_bursts_starting_every_30_s_is_said_not_placed_in_part(pd0_dir, tmp_path):
+    """The bursts of 10, 9, 11, 8 and 12 pings starting every 30 s, the clock standing still from the last ping of
+    the 6th burst through the whole 7th into the 8th (13 pings at one time): which of them came after which pause
+    cannot be told, so the note says so and how early they may be (35.3 s). The 8th burst's 3 were put at the
+    interval and the 7th's 9 left on from the stalled time, 17 s early, without a word of them."""
+    src = pd0_dir / "winriver01.PD0"
+    clean = _clock(src)
+    true = _bursts(clean, [10, 9, 11, 8, 12], [0.0, 30.0])
+    ends = np.flatnonzero(np.diff(true) > 10.0)
+    last = int(ends[5])                                              # the last ping of the 6th burst
+    recorded = true.copy()
+    recorded[last:ends[6] + 4] = true[last]
+    path = tmp_path / src.name
+    path.write_bytes(b"".join(_retimed(src, recorded)))
+    dvl, meta, said = _read_for_a_mission(path)
+    assert meta["streams"]["dvl"]["doubted"] == {pd0.STALLED_TIME: 12}
+    early = recorded[ends[6] + 4] - recorded[last] - 13 * 1.3
+    assert [s for s in said if f"the 13 pings at {pd0._utc(recorded[last])} stood across a pause between bursts" in s
+            and f"those after the pause are up to {early:.1f} s early" in s]
+    assert not [s for s in said if "of them after the pause between bursts it stood still across" in s]

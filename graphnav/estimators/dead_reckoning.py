@@ -12,7 +12,10 @@ Integration is trapezoidal over the pings, the velocity being linear between two
 * a *gap* (consecutive measured pings further apart than :data:`GAP_PERIODS` median ping periods, the
   instrument silent or unlocked) is bridged the same way, with epochs filled in at the median period so that
   the written track has no position jump; each gap is counted and warned about, since what the vehicle did
-  inside it is unknown.
+  inside it is unknown. A gap longer than :data:`~graphnav.io.dvl_files.BRIDGE_MAX_S` (an hour) is not bridged:
+  the log is refused, naming the gap and where to cut it (an hour without a velocity over ground is a vehicle
+  recovered and put in again, or a clock set on, not a pause within one dive; a bridge across 3 days "travelled"
+  366 km).
 
 The vertical position is the log's depth where it has one (a pressure sensor), else the integrated
 ``v_down``. The attitude written is the instrument's (heading, pitch, roll as yaw, pitch, roll of ``C_b_n``:
@@ -28,6 +31,7 @@ from graphnav.core.dvl_log import DvlLog
 from graphnav.core.errors import DataError
 from graphnav.core.rotations import euler_to_C_b_n
 from graphnav.core.solution import NavSolution
+from graphnav.io.dvl_files import long_gaps_said
 
 #: A break between two measured pings longer than this many median ping periods is a gap (warned, counted):
 #: the same threshold as the IMU's (:data:`graphnav.core.mission.IMU_GAP_PERIODS`), a missed ping or two is
@@ -92,7 +96,8 @@ def dvl_dead_reckoning(log: DvlLog, *, gap_periods: float = GAP_PERIODS,
 
     Raises:
         DataError: fewer than two pings with a velocity over ground, or no way to get one (see
-            :func:`velocity_over_ground_n`).
+            :func:`velocity_over_ground_n`), or measured pings more than
+            :data:`~graphnav.io.dvl_files.BRIDGE_MAX_S` apart (:func:`~graphnav.io.dvl_files.long_gaps_said`).
     """
     t = np.asarray(log.t, float)
     v_n, how = velocity_over_ground_n(log)
@@ -105,6 +110,9 @@ def dvl_dead_reckoning(log: DvlLog, *, gap_periods: float = GAP_PERIODS,
     if not period > 0:
         raise DataError(f"ping stamps do not increase (median step {period:g} s between the {len(t_ok)} pings with a "
                         "velocity): put the pings in time order, each with a time of its own", log.source, field="t")
+    far = long_gaps_said(log, ok)
+    if far:
+        raise DataError(far, log.source, field="t")
     tt, gaps = _epochs(t_ok, t, period, gap_periods)
     v = np.column_stack([np.interp(tt, t_ok, v_ok[:, j]) for j in range(3)])
     dt = np.diff(tt)[:, None]

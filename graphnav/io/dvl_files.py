@@ -25,6 +25,12 @@ from graphnav.io import pd0
 CSV_TIME = ("t", "time", "time_s", "timestamp")
 CSV_VELOCITY = (("vx", "vy", "vz"), ("v_x", "v_y", "v_z"), ("vel_x", "vel_y", "vel_z"))
 
+#: A gap (s) between a DVL log's pings with a velocity longer than this is refused by a dead reckoning, not bridged:
+#: the hour of :data:`graphnav.io.pd0.JOIN_SPLIT_S`, past which two recordings are two deployments. A surfacing or a
+#: lost bottom lock within a dive is shorter; an hour or days without a velocity over ground is the vehicle out of
+#: the water or the clock set on, and nothing in the log says where the vehicle went, so no track may join the two.
+BRIDGE_MAX_S = pd0.JOIN_SPLIT_S
+
 
 def is_dvl_file(path: str | Path) -> bool:
     """A file that holds a DVL only: PD0/VmDAS ensembles (recognised by content or by a PD0 name)."""
@@ -48,6 +54,33 @@ def pd0_header(path: str | Path) -> dict:
     return {"instrument": instrument, "ensembles": int(len(t)),
             "span_s": [float(t[0]), float(t[-1])] if len(t) else None,
             "bottom_track": "vel_bt" in ds, "variables": sorted(str(v) for v in ds.data_vars)}
+
+
+def long_gaps_said(log: DvlLog, ok: np.ndarray | None = None) -> str:
+    """What a dead reckoning of ``log`` must not bridge: its pings with a velocity (``ok``, default
+    ``v_d_valid``) more than :data:`BRIDGE_MAX_S` apart, each gap named by the pings either side (the file's
+    ensemble and byte where the log has them) and where to cut the log so that each side is dead-reckoned on its
+    own; "" when there are none."""
+    t = np.asarray(log.t, float)
+    i_ok = np.flatnonzero(np.asarray(log.v_d_valid, bool) if ok is None else ok)
+    far = np.flatnonzero(np.diff(t[i_ok]) > BRIDGE_MAX_S)
+    if not len(far):
+        return ""
+
+    def ping(i: int) -> str:
+        at = f" ({pd0._utc(t[i])} UTC)" if t[i] > 1e8 else ""       # Unix s (inspect's UNIX_CLOCK_MIN_S)
+        return f"{log.where[i] if log.where is not None else f'ping {i + 1}'} at t = {t[i]:.3f} s{at}"
+    said = []
+    for k in far:
+        a, b = int(i_ok[k]), int(i_ok[k + 1])
+        inside = f", {b - a - 1} ping(s) without one between" if b - a > 1 else ""
+        said.append(f"{pd0._gap_words(t[b] - t[a])} from {ping(a)} to {ping(b)}{inside}")
+    cuts = " and ".join(log.where[int(i_ok[k + 1])] if log.where is not None else f"ping {int(i_ok[k + 1]) + 1}"
+                        for k in far)
+    return (f"{len(far)} gap(s) without a velocity over ground longer than {pd0._gap_words(BRIDGE_MAX_S)}: "
+            f"{'; '.join(said)}. A dead reckoning cannot bridge that (the vehicle recovered and put in again, or the "
+            "clock set on: nothing in the log says where it went); dead-reckon each side on its own: cut the log "
+            f"before {cuts}")
 
 
 def read_dvl(path: str | Path, config: SensorConfig | None = None) -> DvlLog:

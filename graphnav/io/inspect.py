@@ -331,12 +331,18 @@ def describe_dvl_log(log) -> dict:
             "ping(s), from the instrument's own attitude (dead reckoning interpolates the others)")
     if log.three_beam is not None and np.any(log.three_beam):
         stream_entry(meta, "dvl")["notes"].append(f"{int(np.sum(log.three_beam))} 3-beam ping(s)")
+    from graphnav.io.dvl_files import long_gaps_said
+    far = long_gaps_said(log, None if log.v_n is None else np.all(np.isfinite(log.v_n), axis=1))
+    if far:             # what smooth refuses to dead-reckon across, said before it is run
+        stream_entry(meta, "dvl")["notes"].append(far)
     streams = meta["streams"]
     span, duration = _span(streams)
     out = {
         "usable": True, "reason": None,
-        "use": "DVL dead reckoning only (no IMU): graphnav smooth --data FILE writes a DVL-DR track; for the "
-               "IMU/DVL estimators give the IMU in the configuration's csv_columns map (--config)",
+        "use": "DVL dead reckoning only (no IMU): graphnav smooth --data FILE writes a DVL-DR track"
+               + ("; cut the file at its gap(s) of over an hour first (the dvl note says where): smooth refuses to "
+                  "bridge them" if far else "") + "; for the IMU/DVL estimators give the IMU in the configuration's "
+               "csv_columns map (--config)",
         "instrument": log.instrument, "dvl_frame": log.frame,
         "clock": "Unix seconds (the instrument's clock)" if len(log.t) and log.t[0] > UNIX_CLOCK_MIN_S
         else "the log's own clock, s",

@@ -1340,6 +1340,8 @@ def _after_pause_by_cycle(t: np.ndarray, spread: np.ndarray, groups: tuple, stal
         after = int(np.round((jump - start) / period))
         if start <= t[first] + (sizes[g] - after - 1) * period or not 0 < after < sizes[g]:
             continue                         # no pause between the stalled time and the jump, or none of it after
+        if start - cycle > t[first] + 0.5 * period:
+            continue                         # a burst start between: it stood across several pauses (said)
         spread[end - after:end] = start + period * np.arange(after)
     return spread
 
