@@ -835,10 +835,11 @@ def _refuse_far_joins(raw: bytes, scan: Pd0Scan, source: str) -> None:
 
 
 def _gap_words(gap_s: float) -> str:
-    """A gap in s as a user reads it: seconds, minutes, hours or days."""
+    """A gap in s as a user reads it: seconds, minutes, hours or days, to three figures (a gap of 61 min is "1.02 h",
+    not the "1.0 h" of the one-hour limit it is over)."""
     for unit, size in (("day(s)", 86400.0), ("h", 3600.0), ("min", 60.0)):
         if gap_s >= size:
-            return f"{gap_s / size:.1f} {unit}"
+            return f"{gap_s / size:.3g} {unit}"
     return f"{gap_s:.2f} s"
 
 
