@@ -782,9 +782,9 @@ class _AngleModel:
     def inside(self, offset: float, to: float | None = None) -> np.ndarray:
         """True at the intervals inside the IMU span at ``offset`` s (and at ``to`` s) that no gap in the IMU
         (:func:`~graphnav.core.dvl_kinematics.imu_gaps`) falls in at any offset from ``offset`` to ``to``: across one
-        the gyro's integral is interpolated, not measured. With 0.4 s of IMU rows missing every 7 s, an A-KIT GT a day
-        off (ten trajectories) was put 4-25 ms off its gapless offset (sigma 1-3 ms; 1 s every 20 s, 0.4 s every 4 s: up
-        to 39 and 46 ms); with those intervals left out, within 0.8 ms."""
+        the gyro's integral is interpolated, not measured. With 0.4 s of IMU rows missing every 7 s, the ten A-KIT GTs
+        5000.3 s off were put 4-25 ms from their gapless offsets (sigma 1-3 ms; 1 s every 20 s, 0.4 s every 4 s: up to
+        39 and 46 ms); with those intervals left out, within 0.8 ms."""
         to = offset if to is None else to
         use = (self.a + offset >= self.t_imu[0]) & (self.b + to <= self.t_imu[-1])
         if len(self.gaps):
