@@ -1104,6 +1104,57 @@ def test_a_dvl_beside_an_imu_losing_0_4_s_every_7_s_is_placed_by_its_data_not_th
     assert abs(est.offset_s - est.coarse_offset_s) < 0.5 and 0.0 < est.sigma_s < 0.5, est     # NaN: nothing fitted
 
 
+def _losing_0_4_s_every_7_s(imu):
+    since = imu.t - imu.t[0] - 3.1
+    keep = (since <= 0.0) | (since % 7.0 >= 0.4)
+    return dataclasses.replace(imu, t=imu.t[keep], f_b=imu.f_b[keep], omega_b=imu.omega_b[keep])
+
+
+@pytest.fixture(scope="module")
+def sim_200_seed2():
+    cfg = SensorConfig()
+    cfg.dvl = dataclasses.replace(cfg.dvl, beam_noise_std=0.01)
+    return simulate_mission(200.0, seed=2, config=cfg)
+
+
+@pytest.mark.parametrize("shift", [0.0, -30.0])
+def test_a_fit_narrowed_for_periodic_imu_gaps_moves_on_to_its_best_past_the_coarse_offset(sim_200_seed2, shift):
+    """0.4 s of IMU rows missing every 7 s: the refinement's reach narrowed to 0.5 s kept a part of the pings between
+    gaps (parts of 6-7) and stopped 0.25 s past a coarse offset 0.975 s off: placed 0.72 s off (the gapless log 0.007
+    s); the ten A-KIT column maps 0.01-0.34 s from their gapless offsets. The reach keeping most of the pings is centred
+    on its fit until it settles, as far as the full reach would go; its rival (the next best offset) is scored on such
+    a reach too, where its +-0.5 s left the lead unmeasured (NaN)."""
+    sim = sim_200_seed2
+    est = estimate_dvl_clock_offset(_losing_0_4_s_every_7_s(sim.imu), _shifted(sim.dvl, shift), sim.config)
+    assert abs(est.coarse_offset_s - shift) > 0.9, est          # the coarse scan's best, a grid step or two off
+    assert est.offset_s == pytest.approx(shift, abs=0.1), est
+    assert np.isfinite(est.lead_sigmas), est
+
+
+def test_a_gt_clock_beside_periodic_imu_gaps_leaves_out_the_intervals_a_gap_falls_in(sim_200_seed2):
+    """The angle the gyro turns through over a GT interval holding an IMU gap is interpolated across it: a GT 5000.3 s
+    off beside an IMU losing 0.4 s every 7 s was put 19.6 ms off (sigma 1.1 ms; the gapless log 0.5 ms, sigma 0.1 ms).
+    Those intervals are left out at every offset the refinement tries."""
+    from graphnav.calibration.clock import estimate_gt_clock_offset
+    sim = sim_200_seed2
+    gt = dataclasses.replace(sim.gt, t=sim.gt.t + 5000.3)
+    est = estimate_gt_clock_offset(_losing_0_4_s_every_7_s(sim.imu), gt)
+    assert est.offset_s == pytest.approx(-5000.3, abs=0.002), est
+    assert abs(est.offset_s + 5000.3) < 5 * est.sigma_s + 0.001, est
+
+
+def test_a_gt_time_offset_beside_periodic_imu_gaps_leaves_out_the_intervals_a_gap_falls_in(sim_200_seed2):
+    """The fine GT time offset (+-2 s) scored GT intervals holding an IMU gap on the gyro's integral interpolated
+    across it: a GT 0.3 s late beside an IMU losing 0.4 s every 7 s was put 17.6 ms off, sigma 0.7 ms (gapless
+    0.1 ms). Intervals a gap falls in at any offset searched are left out."""
+    from graphnav.calibration.reference import estimate_gt_time_offset
+    sim = sim_200_seed2
+    imu = _losing_0_4_s_every_7_s(sim.imu)
+    est = estimate_gt_time_offset(imu.t, imu.omega_b, sim.gt.t + 0.3, sim.gt.C_b_n)
+    assert est.offset_s == pytest.approx(-0.3, abs=0.002), est
+    assert abs(est.offset_s + 0.3) < 5 * est.sigma_s + 0.0005, est
+
+
 def _cut_at_the_gap_at_80_s(model):
     """Check that the window across an IMU gap at 80-80.3 s is cut there at offsets -10 and -8 s (pings at 70-89 s and
     72-91 s on the IMU clock: 11 / 9 either side), each side fitted as a part; returns (offset, pings used, stamps)."""

@@ -2227,3 +2227,19 @@ def test_an_imu_turn_that_explains_none_of_the_velocity_changes_is_not_refused(a
                                          r"better than as read, but explains none of them \(1\.3\d left unexplained, "
                                          r"1\.4\d as read, 1\.25x needed", notes[0]), notes
     assert -29.7 < m.meta["clock_offsets"]["dvl"]["offset_s"] < -29.2      # gapless: -29.4
+
+
+def test_a_dvl_on_its_own_clock_beside_an_imu_losing_1_s_every_20_s_is_judged_at_its_own_offset():
+    """The earth-frame check's offsets on a DVL's own clock were refined over the pings fitted at both ends of the
+    reach (+-1 s), cut at the IMU's gaps at each offset tried: a ping a gap swept over moved from one part of its window
+    to the next and made a step in the cost. A 200 s log 12 s late, IMU rows missing for 1 s every 20 s, read as body
+    at -11.710 s (the gapless log -12.024 s): the pings and parts kept the same at every offset, as the clock search's,
+    -12.008 s."""
+    cfg = SensorConfig()
+    cfg.dvl = dataclasses.replace(cfg.dvl, beam_noise_std=0.01)
+    m = simulate_mission(200.0, seed=1, config=cfg)
+    t, v_b = dvl_velocity_b(m.dvl, m.config)
+    since = m.imu.t - m.imu.t[0] - 7.3
+    keep = (since <= 0.0) | (since % 20.0 >= 1.0)
+    body_s = dvl_frame._own_offsets(t + 12.0, v_b, m.imu.t[keep], m.imu.f_b[keep], m.imu.omega_b[keep])[2]
+    assert body_s == pytest.approx(-12.0, abs=0.05)

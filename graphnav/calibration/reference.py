@@ -224,6 +224,7 @@ def estimate_gt_time_offset(t_imu, omega_b, t_gt, C_b_n_gt, lat_rad: float | Non
         raise DataError(f"too little overlap between the IMU [{t_imu[0]:.3f}, {t_imu[-1]:.3f}] s and the reference "
                         f"[{t_gt[0]:.3f}, {t_gt[-1]:.3f}] s to estimate a time offset ({int(usable.sum())} reference "
                         "intervals inside the IMU span for every candidate, 10 needed)", source, field="t")
+    usable = _clear_of_imu_gaps(t_imu, t_gt, usable, search_s)
     a_t, b_t, ref = t_gt[:-1][usable], t_gt[1:][usable], incr_ref[usable]
 
     def cost(offset):
@@ -233,6 +234,22 @@ def estimate_gt_time_offset(t_imu, omega_b, t_gt, C_b_n_gt, lat_rad: float | Non
     x, sse, curv = _search_offset(cost, search_s[0], search_s[1], step_s)
     n = ref.size
     return OffsetEstimate(x, _sigma_from_curvature(sse, curv, n, 1), float(np.sqrt(sse / n)), n)
+
+
+def _clear_of_imu_gaps(t_imu: np.ndarray, t_ref: np.ndarray, usable: np.ndarray, search_s: tuple[float, float]
+                       ) -> np.ndarray:
+    """The reference intervals ``usable`` (K-1,) less those a gap in the IMU stamps ``t_imu`` (s,
+    :func:`~graphnav.core.dvl_kinematics.imu_gaps`) falls in at any offset in ``search_s`` (s): across one the gyro's
+    integral is interpolated, not measured. A simulated 200 s log's GT (10 Hz) 0.3 s late beside an IMU losing 0.4 s
+    every 7 s (1 s every 20 s) was put 18-20 (29-36) ms off, sigma 0.7 (1.3) ms; gapless within 0.1 ms. Where that
+    leaves under 10 (an IMU losing samples every few seconds), they are kept as they are."""
+    from graphnav.core.dvl_kinematics import imu_gaps
+    gaps = imu_gaps(t_imu)
+    if not len(gaps):
+        return usable
+    clear = (np.searchsorted(gaps[:, 1], t_ref[:-1] + search_s[0], side="right")
+             == np.searchsorted(gaps[:, 0], t_ref[1:] + search_s[1], side="left"))
+    return usable & clear if np.count_nonzero(usable & clear) >= 10 else usable
 
 
 def dvl_design(reference: Reference, t_dvl: np.ndarray, v_dvl: np.ndarray,

@@ -343,7 +343,7 @@ class _WindowModel:
         (a 200 s simulated log with 1 s of IMU missing every 20 s, 12 s late, was placed 0.35 s off on such a step),
         is left out."""
         use = with_enough_pings(self.pings(lo) & self.pings(hi))
-        if not (self.trim and len(self.imu.gaps)):
+        if not len(self.imu.gaps):
             return use
         begun = np.searchsorted(self.imu.gaps[:, 0], self.t + hi, side="left")
         swept = begun != np.searchsorted(self.imu.gaps[:, 1], self.t + lo, side="right")
