@@ -646,14 +646,17 @@ def test_a_dvl_clock_running_slow_and_stepping_has_its_step_measured_off_the_dri
     assert np.abs(m.dvl.t - clean.dvl.t).max() < 0.02
 
 
-@pytest.mark.parametrize("topic, off_ms", [("/dvl/data", 500), ("/imu/data", -5), ("/imu/data", 5)])
+@pytest.mark.parametrize("topic, off_ms", [("/dvl/data", 500), ("/imu/data", -5), ("/imu/data", 5),
+                                           ("/dvl/data", 1500), ("/imu/data", 15)])
 def test_a_header_clock_stepping_under_a_gap_is_repaired(sim, tmp_path, topic, off_ms):
     """The DVL's header clock steps +0.5 s at ping 15 (a 1.5 s step: under the two periods a gap is judged from), the
     IMU's -5 ms or +5 ms at sample 1500 (half its period: its stamps still increase), every message received as before
     (the DVL 0.25-0.35 s after its time, the IMU 1-1.5 ms). The DVL's later pings were left 0.5 s late without a word,
     the IMU's 5 ms off (warned as a step off its period, the samples keeping their stamps). Now header minus receive
     time stepping where the stamps leave their grid is the header clock's step, taken out either way as a step back of
-    a DVL is: the stamps from it on moved onto the clock before it, warned and counted."""
+    a DVL is: the stamps from it on moved onto the clock before it, warned and counted. A step of +1.5 s (+15 ms: 2.5
+    periods between stamps, a step of 1.5 periods) fell between the two rules, too long for this one and too short for
+    a gap's (a step of 2 periods or more): the later pings were left 1.5 s late (the IMU's samples 15 ms), now moved."""
     _, clean_path, _ = sim
     clean, _ = _load(clean_path)
     rng = np.random.default_rng(12)
@@ -696,3 +699,54 @@ def test_a_topics_exact_copies_are_looked_for_once_beside_an_imus_filler(sim, tm
     assert m.meta["streams"]["imu"]["refused"] == {
         "all-zero IMU row (a logger's filler: zero specific force is impossible under gravity)": 10}
     assert calls.count("imu") == 1, calls
+
+
+def _dvl_pinging_every(period_s, header_s, latency_s, every=1):
+    """A change (:func:`_rewritten`) of the DVL's messages: every ``every``-th kept, its ping at ``period_s`` (s) steps
+    on the IMU's clock (a DVL triggered by the vehicle), stamped ``header_s(t)`` and received ``latency_s(t)`` s after
+    its time ``t`` (s into the bag); the others left out."""
+    n = {"k": 0}
+
+    def change(t, k, msg, rx):
+        if t != "/dvl/data":
+            return rx
+        if k % every:
+            return None
+        at = 0.5 + n["k"] * period_s
+        n["k"] += 1
+        _set_stamp(msg, T0_NS + round(header_s(at) * NS))
+        return T0_NS + round((at + latency_s(at)) * NS)
+    return change
+
+
+@pytest.mark.parametrize("period_s, every", [(3.0, 3), (0.6, 1)])
+def test_a_dvl_clock_running_slow_at_a_round_ping_period_is_taken_out(tmp_path, period_s, every):
+    """A DVL triggered every 3 s (every 0.6 s: periods a DVL is set to, rates of 0.333 Hz and 1.667 Hz) whose clock
+    runs 1 % slow, its pings received 0.25-0.35 s after their time. Neither rate is round, so the drift was said not
+    to be told from a queue filling and kept: the last ping 1.5 s (0.9 s) early. A round period shows the clock that
+    keeps the pings' schedule as well as a round rate: the drift is taken out again, every ping within 0.02 s."""
+    clean_path = bags.write_mission_bag(simulate_mission(duration_s=150.0, seed=5), tmp_path / "clean",
+                                        t0_unix_ns=T0_NS)
+    rng = np.random.default_rng(8)
+    right, _ = _load(_rewritten(clean_path, tmp_path / "right",
+                                _dvl_pinging_every(period_s, lambda t: t, lambda t: 0.3, every)))
+    m, warned = _load(_rewritten(clean_path, tmp_path / "slow", _dvl_pinging_every(
+        period_s, lambda t: 0.5 + (t - 0.5) * 0.99, lambda t: 0.25 + 0.1 * rng.random(), every)))
+    assert np.abs(m.dvl.t - right.dvl.t).max() < 0.02
+    assert m.meta["streams"]["dvl"]["doubted"] == {bag_stamps.HEADER_CLOCK_DRIFT: right.dvl.t.size}
+
+
+def test_a_dvl_drift_not_told_from_a_queue_filling_is_counted_as_such(sim, tmp_path):
+    """The DVL pinging every 0.7 s (1.43 Hz: neither a round rate nor a round period), received 0.05 s after its time
+    at the start and 0.35 s at the end. Which clock keeps the schedule cannot be told: the header stamps are kept as
+    before, but were counted as kept for a latency "too spread to tell" (0.000 s spread about the line). Now counted
+    as not told from the recorder's latency growing."""
+    _, clean_path, _ = sim
+    m, warned = _load(_rewritten(clean_path, tmp_path / "queue07", _dvl_pinging_every(
+        0.7, lambda t: t, lambda t: 0.05 + 0.3 * t / 21.0)))
+    n = m.dvl.t.size
+    np.testing.assert_allclose(m.dvl.t - m.dvl.t[0], 0.7 * np.arange(n), atol=2e-9)
+    assert m.meta["streams"]["dvl"]["doubted"] == {bag_stamps.HEADER_CLOCK_DRIFT_NOT_TOLD: n}
+    said = [w for w in warned if "/dvl/data, field 'header.stamp'" in w]
+    assert len(said) == 1 and said[0].endswith("cannot be told from the recorder's latency growing: the header "
+                                               "stamps are kept"), said

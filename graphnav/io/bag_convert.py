@@ -26,9 +26,9 @@ from graphnav.core.screening import (EXACT_COPY, IMU_FILLER, MAX_STAMP_GAP_S, NU
 from graphnav.core.streams import add_note, count_refused, say_doubted
 from graphnav.io import bag_fields
 from graphnav.io.bag_stamps import (CLOCK_DRIFT_MAX_RATE, CLOCK_DRIFT_NOTE_S, HEADER_CLOCK_DRIFT,
-                                    HEADER_CLOCK_DRIFT_UNTOLD, HEADER_CLOCK_STEP, HEADER_LATENCY_GROWS,
-                                    HEADER_STEP_SPREADS, RECEIVED_OFF_PACE, clock_step_moved, latency_drop,
-                                    latency_rate, latency_step, latency_trend, nearer_the_receive_clock,
+                                    HEADER_CLOCK_DRIFT_NOT_TOLD, HEADER_CLOCK_DRIFT_UNTOLD, HEADER_CLOCK_STEP,
+                                    HEADER_LATENCY_GROWS, HEADER_STEP_SPREADS, RECEIVED_OFF_PACE, clock_step_moved,
+                                    latency_drop, latency_rate, latency_step, latency_trend, nearer_the_receive_clock,
                                     off_round_rate, on_the_grid, say_set_right, say_steps_back, schedule_periods,
                                     steps_back_repaired)
 from graphnav.io.bag_msgs import MARINE_DVL, WL_DVL
@@ -424,12 +424,12 @@ def header_clock_drift_removed(s: Stream, source: str, meta: dict, kind: str, cl
 def _drift_kept(t_ns: np.ndarray, receive_ns: np.ndarray, rate: float, clock_rate: float) -> tuple[str, str] | None:
     """Why a topic's header minus receive time drifting by ``rate`` (s per s against the IMU's, whose own is
     ``clock_rate``) is not its header clock's drift to take out, as (the warning's end, the reason counted); None when
-    the clock is shown drifting: the messages come at a round rate on the IMU's clock
+    the clock is shown drifting: the messages come at a round rate (or period) on the IMU's clock
     (:func:`~graphnav.io.bag_stamps.schedule_periods`, :data:`~graphnav.io.bag_stamps.ROUND_RATES_HZ`, within a
     quarter of the drift) and their header stamps leave it by the drift. A recorder's latency growing (a queue
     filling) drifts header minus receive time alike, but leaves the header stamps at their round rate and the
     receive time off it: then the header stamps are kept; neither round (a DVL pinging at its own pace), it cannot be
-    told, and they are kept too."""
+    told, and they are kept too, counted as such."""
     sched = schedule_periods(t_ns, receive_ns, clock_rate)
     bar = abs(rate) / 4
     if sched is not None:
@@ -438,13 +438,14 @@ def _drift_kept(t_ns: np.ndarray, receive_ns: np.ndarray, rate: float, clock_rat
             return None
         periods = f"its period {header:.6f} s on the header clock, {received:.6f} s on the IMU's as received"
         if off_round_rate(header) < bar:
-            return (f"{periods}: the header stamps keep a round rate and the receive time leaves it, so the "
-                    "recorder's latency grows (a queue filling), not the header clock: the header stamps are kept",
+            return (f"{periods}: the header stamps keep a round rate (or period) and the receive time leaves it, so "
+                    "the recorder's latency grows (a queue filling), not the header clock: the header stamps are kept",
                     HEADER_LATENCY_GROWS)
     else:
         periods = "its stamps too uneven to time the messages' period"
-    return (f"{periods}: neither shows which clock keeps the messages' round rate, so the header clock drifting "
-            "cannot be told from the recorder's latency growing: the header stamps are kept", HEADER_CLOCK_DRIFT_UNTOLD)
+    return (f"{periods}: neither shows which clock keeps the messages' round rate (or period), so the header clock "
+            "drifting cannot be told from the recorder's latency growing: the header stamps are kept",
+            HEADER_CLOCK_DRIFT_NOT_TOLD)
 
 
 def _say_lost_as_latency_dropped(s: Stream, at: str, jump: float, rx_s: float, step: float, lost_n: int, kind: str,

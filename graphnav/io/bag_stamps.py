@@ -262,12 +262,14 @@ def steps_back_repaired(header_ns: np.ndarray, receive_ns: np.ndarray, stream: s
 
 def _rises(t_ns: np.ndarray, latency: np.ndarray, jumps: np.ndarray, period_s: float) -> np.ndarray:
     """The messages among ``jumps`` (:func:`latency_jumps`) where header minus receive time ``latency`` (s) rises as
-    the header stamps ``t_ns`` (ns) step forward under :data:`~graphnav.core.imu_timing.GAP_WARN_SAMPLES` periods
-    ``period_s`` (s) off their sample grid (:func:`on_the_grid`): where the header clock may step forward."""
+    the header stamps ``t_ns`` (ns) step forward off their sample grid (:func:`on_the_grid`), a period ``period_s``
+    (s) and a step of under :data:`~graphnav.core.imu_timing.GAP_WARN_SAMPLES` more apart: where the header clock may
+    step forward (a step of more is a gap's, judged with the messages it may have lost)."""
     from graphnav.core.imu_timing import GAP_WARN_SAMPLES
     d = np.diff(t_ns) / 1e9
     dj = d[jumps - 1]
-    up = jumps[(latency[jumps] > latency[jumps - 1]) & (dj > 0) & (dj < GAP_WARN_SAMPLES * period_s)]
+    # a step of 1-2 periods puts 2-3 periods between the stamps: under the gap's step, so judged here too
+    up = jumps[(latency[jumps] > latency[jumps - 1]) & (dj > 0) & (dj < (GAP_WARN_SAMPLES + 1) * period_s)]
     return np.array([j for j in up if on_the_grid(t_ns, j, period_s) is False], int)
 
 
@@ -305,6 +307,8 @@ CLOCK_DRIFT_MIN_MESSAGES = 20
 CLOCK_DRIFT_MAX_RATE = 0.05
 HEADER_CLOCK_DRIFT = "stamped by a header clock drifting against the IMU's (moved onto its rate)"
 HEADER_CLOCK_DRIFT_UNTOLD = "stamped by a header clock that may drift against the IMU's (kept: too spread to tell)"
+HEADER_CLOCK_DRIFT_NOT_TOLD = ("stamped by a header clock that may drift against the IMU's (kept: not told "
+                               "from a recorder's latency growing)")
 RECEIVED_OFF_PACE = "received at a pace no clock drifts by (the header stamps kept)"
 
 
@@ -327,8 +331,9 @@ def latency_rate(t_ns: np.ndarray, receive_ns: np.ndarray) -> tuple[float, float
     return float(rate), 1.4826 * float(np.median(np.abs(res - np.median(res))))
 
 
-#: The rates a driver publishes at, Hz (times the powers of ten): each at least 1.2 times the next lower, so a rate
-#: within :data:`CLOCK_DRIFT_MAX_RATE` of one is near no other.
+#: The rates a driver publishes at, Hz, and the periods a DVL is set to ping at, s (times the powers of ten: every
+#: 0.3 s or 3 s is a round period, 3.33 Hz and 0.333 Hz no round rate): the rates of both at least 1.11 times the next
+#: lower, so a rate within :data:`CLOCK_DRIFT_MAX_RATE` of one is near no other.
 ROUND_RATES_HZ = (1.0, 1.25, 1.5, 2.0, 2.5, 3.0, 4.0, 5.0, 6.0, 8.0)
 #: A topic's messages numbered by their header stamps must come at least this many to time their schedule.
 SCHEDULE_MIN_MESSAGES = 10
@@ -337,14 +342,15 @@ HEADER_LATENCY_GROWS = ("received ever later while the header stamps keep their 
 
 
 def off_round_rate(period_s: float) -> float:
-    """How far (relative) the rate of ``period_s`` (s) lies from the nearest of :data:`ROUND_RATES_HZ` (times a power
-    of ten); inf for no positive finite period."""
+    """How far (relative) the rate of ``period_s`` (s), or the period itself, lies from the nearest of
+    :data:`ROUND_RATES_HZ` (times a power of ten: Hz, or s); inf for no positive finite period."""
     if not np.isfinite(period_s) or period_s <= 0:
         return np.inf
-    rate = 1.0 / period_s
-    decade = 10.0 ** np.floor(np.log10(rate))
-    near = np.array([*ROUND_RATES_HZ, 10.0]) * decade
-    return float(np.min(np.abs(rate / near - 1.0)))
+
+    def off(x: float) -> float:
+        near = np.array([*ROUND_RATES_HZ, 10.0]) * 10.0 ** np.floor(np.log10(x))
+        return float(np.min(np.abs(x / near - 1.0)))
+    return min(off(1.0 / period_s), off(period_s))
 
 
 def schedule_periods(t_ns: np.ndarray, receive_ns: np.ndarray, clock_rate: float = 0.0
