@@ -1,6 +1,8 @@
 """In-motion alignment from the sensors (graphnav.estimators.align) on simulated missions with exact ground truth."""
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pytest
 from scipy.stats import chi2
@@ -466,7 +468,9 @@ def test_the_navigator_gyrocompasses_over_the_stretch_after_a_joined_imu_gap_whe
     mission = _lose_imu(simulate_mission(250.0, "navigation", seed).slice(120.0, 245.0), 20.0, 1.0)
     t0 = mission.t0
     nav = Navigator(mission.config, "ekf", options=replay_options(None, mission, AlignOptions(duration_s=90.0)))
-    with pytest.warns(RuntimeWarning, match="no estimates from t = .* the alignment starts after the IMU gap"):
+    # the gyros could carry the attitude over this gap: the warning says why the alignment starts after it
+    with pytest.warns(RuntimeWarning, match="no estimates from t = .* the alignment starts after the IMU gap there: "
+                      "the IMU gap .* not joined"):
         est = feed_mission(nav, mission)
     a = nav.alignment
     assert a.info["t_start"] == pytest.approx(t0 + 21.0) and a.info["imu_gaps_joined"] == 0
@@ -501,11 +505,11 @@ def test_an_alignment_kept_across_a_joined_imu_gap_is_checked_once():
     assert len(calls) == 1
 
 
-def _fed_with_a_joined_gap(ask_at: float | None = None):
+def _fed_with_a_joined_gap(ask_at: float | None = None, seed: int = 3, stop=None):
     """(mission, aligner fed the whole of it): 125 s with 1 s of IMU samples lost 20 s in (seed 3); its ``result`` is
     asked once ``ask_at`` s in (None: never), where 90 s across the gap leave the heading undetermined and the
-    69 s after it are short: refused."""
-    mission = _lose_imu(simulate_mission(250.0, "navigation", 3).slice(120.0, 245.0), 20.0, 1.0)
+    69 s after it are short: refused. ``stop(aligner)``, asked after each IMU sample, ends the feed when True."""
+    mission = _lose_imu(simulate_mission(250.0, "navigation", seed).slice(120.0, 245.0), 20.0, 1.0)
     aligner = Aligner(mission.config, AlignOptions(duration_s=90.0))
     events = sorted([(t, 0, i) for i, t in enumerate(mission.imu.t)] + [(t, 1, i) for i, t in enumerate(mission.dvl.t)])
     t_before = None
@@ -515,6 +519,8 @@ def _fed_with_a_joined_gap(ask_at: float | None = None):
                 aligner.imu_gap(t_before, t)
             aligner.add_imu(t, mission.imu.f_b[i], mission.imu.omega_b[i])
             t_before = t
+            if stop is not None and stop(aligner):
+                break
             if ask_at is not None and t >= mission.t0 + ask_at:
                 ask_at = None
                 with pytest.raises(AlignmentError, match="leaves its gyrocompassed heading undetermined"):
@@ -578,3 +584,38 @@ def test_a_navigator_without_catch_up_takes_the_alignment_across_a_joined_imu_ga
     assert nav.alignment.info["imu_gaps_joined"] == 1 and nav.alignment_ready_t == pytest.approx(mission.t0 + 90.0)
     v_true = mission.meta["trajectory"].state(np.array([e.t for e in est])).v_n
     assert np.max(np.abs(np.array([e.v_n for e in est]) - v_true)) < 0.3
+
+
+def test_a_navigator_whose_window_moves_past_a_joined_imu_gap_aligns_over_the_data_after_it():
+    """``max_window_s`` equal to ``duration_s`` (90 s; allowed): 1 s of IMU samples lost 20 s into a 145 s mission
+    (seed 0). Waiting for the 90 s after the gap, the aligner's window dropped the gap first and the wait never ended:
+    aligned only at the end of the data (145 s; live, never) from the alignment held at 90 s. Now it aligns over the
+    data after the gap once they are enough (111 s), and its warning gives the reason the gyros are not to blame."""
+    from graphnav.estimators.navigator import Navigator, feed_mission
+    from graphnav.estimators.runs import replay_options
+
+    mission = _lose_imu(simulate_mission(250.0, "navigation", 0).slice(100.0, 245.0), 20.0, 1.0)
+    t0 = mission.t0
+    nav = Navigator(mission.config, "ekf",
+                    options=replay_options(None, mission, AlignOptions(duration_s=90.0, max_window_s=90.0)))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        feed_mission(nav, mission)
+    a = nav.alignment
+    assert nav.alignment_ready_t == pytest.approx(t0 + 111.0, abs=0.5)
+    assert a.info["t_start"] == pytest.approx(t0 + 21.0, abs=0.05) and a.info["imu_gaps_joined"] == 0
+    assert "not joined: the data after it are enough to gyrocompass over" in a.info["imu_gaps_not_joined"]
+    said = [str(w.message) for w in caught if "no estimates from" in str(w.message)]
+    assert len(said) == 1 and "not joined" in said[0] and "cannot carry" not in said[0]
+
+
+def test_a_live_status_says_the_aligner_waits_for_the_data_after_a_joined_imu_gap():
+    """1 s of IMU samples lost 20 s into a 125 s mission (seed 0), 90 s alignment: ready across the gap at 90 s, the
+    aligner holds that alignment and waits for the 90 s after the gap (until 111 s). Meanwhile its progress (the
+    status line of ``graphnav online --stream``) said it had 90 of 90 s and waited for nothing ("the next IMU
+    sample"); now it says what it waits for, and how much of it there is (69 of the 90 s after the gap)."""
+    _, aligner = _fed_with_a_joined_gap(seed=0, stop=lambda a: a.check_ready() or a.waiting_after_joined_gaps)
+    assert aligner.waiting_after_joined_gaps
+    p = aligner.progress()
+    assert p["waiting_for"] == ["imu time after a joined imu gap"]
+    assert p["aligned_s"] == pytest.approx(69.0, abs=0.05) and p["needed_s"] == 90.0       # 69 s after the gap

@@ -579,8 +579,10 @@ class Aligner:
         (s; ``end_of_data``: what an alignment at the end of the data needs, :meth:`missing`), ``dvl_pings`` with
         bottom lock of ``dvl_pings_needed``, ``heading`` (``"heading record"``, ``"given"`` or
         ``"gyrocompassing"``), ``waiting_for``: ``"imu time"``, ``"dvl bottom lock"``, ``"heading source"``
-        (gyrocompassing impossible with this gyro or configuration), and ``imu_gaps``: why the IMU time gathered
-        restarted (empty, or the IMU gaps in words, :meth:`imu_gap`)."""
+        (gyrocompassing impossible with this gyro or configuration), ``"imu time after a joined imu gap"`` (ready
+        across joined IMU gaps, the alignment held while the data after them gather, :meth:`check_ready`;
+        ``aligned_s`` is then the IMU time after the last of them), and
+        ``imu_gaps``: why the IMU time gathered restarted (empty, or the IMU gaps in words, :meth:`imu_gap`)."""
         waiting = []
         span, need = self._span_s(), self._needed_s(end_of_data)
         if span < need:
@@ -591,6 +593,10 @@ class Aligner:
                    else "gyrocompassing")
         if heading == "gyrocompassing" and self._gyrocompass_bias_limit() > self.options.max_heading_sigma_rad:
             waiting.append("heading source")
+        if self._joined_wait is not None:       # else "waiting for" nothing, for up to duration_s
+            waiting.append("imu time after a joined imu gap")
+            if self.joined_gaps:                # the time gathered is what counts: after the last gap
+                span = self._imu[-1][0] - self.joined_gaps[-1][1]
         return {"aligned_s": float(span), "needed_s": float(need), "dvl_pings": len(self._dvl),
                 "dvl_pings_needed": int(self.options.min_dvl_pings), "dvl_pings_ignored": int(self.n_dvl_ignored),
                 "heading": heading, "waiting_for": waiting, "imu_gaps": self._gap_note().strip(" ()")}
@@ -621,12 +627,20 @@ class Aligner:
             if self._n_gaps_told != self._joined_wait[1]:
                 self.stop_waiting()
                 return True
-            if not self._after_last_joined_ready():
-                return False
-            n, note = len(self._joined_steps(np.array([s[0] for s in self._imu]))), self._joined_note()
-            if self._fall_back():
-                self.stop_waiting()
-                return True
+            if not self.joined_gaps:
+                # the window held (max_window_s) moved past the gaps before the data after them were enough: it
+                # holds only data after them, and aligns over them once they are enough (else it waited for ever)
+                if self.missing():
+                    return False
+                held = self._joined_wait[0]
+                n, note = len(held._joined_steps(np.array([s[0] for s in held._imu]))), held._joined_note()
+            else:
+                if not self._after_last_joined_ready():
+                    return False
+                n, note = len(self._joined_steps(np.array([s[0] for s in self._imu]))), self._joined_note()
+                if self._fall_back():
+                    self.stop_waiting()
+                    return True
             self._joined_wait = None
             self._not_joined = (f"the IMU gap{'s' * (n > 1)} ({note}) not joined: the data after "
                                 f"{'them' if n > 1 else 'it'} are enough to gyrocompass over, as before gaps were "

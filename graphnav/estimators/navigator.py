@@ -73,7 +73,7 @@ from graphnav.core.mission import MAX_DVL_SPEED_MPS
 from graphnav.core.screening import (CLOCK_JUMP_CONFIRM_S, EXACT_COPY, IMU_STALL_CONTEXT_S, IMU_STALL_UNTOLD,
                                      IMU_STALLED, MAX_REFUSED_FRACTION, NO_BOTTOM_LOCK, NUDGED_COPY, ImuStallTest,
                                      NudgedCopies, RecentRepeats, StreamScreen, clock_jump_words)
-from graphnav.estimators.align import AlignOptions
+from graphnav.estimators.align import GAP_JOINED_S, AlignOptions
 from graphnav.estimators.backends import BACKENDS, make_backend
 from graphnav.estimators.clock_steps import AFTER_GAP_S, JUDGE_WINDOW_S, JUDGED_GAP_MIN_S, judge_gap
 from graphnav.estimators.coasting import CoastingMonitor, SigmaMonitor
@@ -1194,9 +1194,12 @@ class Navigator:
             a.missing(end_of_data=True)     # the longest stretch without an IMU gap
             a.settle(end_of_data=True)      # across short ones only when the heading is determined over them
         if t_first is not None and a.t_first is not None and a.t_first > t_first:
+            # a joined gap the gyros could carry it over: the alignment chose the data after it, and says why
+            gap = next((g for g in reversed(a.imu_gaps) if g[1] <= a.t_first), None)
+            why = (": " + a._not_joined if a._not_joined and (gap is None or gap[1] - gap[0] <= GAP_JOINED_S)
+                   else ", over which the gyros cannot carry its attitude back")
             warnings.warn(f"navigator: no estimates from t = {t_first:.3f} to {a.t_first:.3f} s: the alignment "
-                          f"starts after the IMU gap there, over which the gyros cannot carry its attitude back",
-                          RuntimeWarning, stacklevel=4)
+                          f"starts after the IMU gap there{why}", RuntimeWarning, stacklevel=4)
             t_first = a.t_first
         al = None
         if (self.options.align_catch_up or end_of_data) and t_first is not None:
