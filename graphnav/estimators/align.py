@@ -1367,7 +1367,8 @@ def align_mission(mission, options: AlignOptions | None = None, *, use_depth: bo
             break
         if feed(aligner, t, kind, i) and t_end is None and aligner.check_ready():
             break
-        if aligner.waiting_after_joined_gaps and t_result is not None and t_result < aligner.joined_gaps[-1][1]:
+        if (aligner.waiting_after_joined_gaps and t_result is not None and aligner.joined_gaps
+                and t_result < aligner.joined_gaps[-1][1]):     # (the window held may have moved past the gaps)
             aligner.stop_waiting()      # the state is wanted before the gap: the data after it cannot give it
             break
     aligner.stop_waiting()              # the mission ended before the data after the gap were enough
