@@ -748,9 +748,9 @@ def align_stream_clocks(imu, dvl, depth=None, meta: dict | None = None, config=N
                  "acceleration): give dvl_time_offset_s if it is known, or let graphnav calibrate fit it against a "
                  "reference")
     elif est.between_imu_gaps:
-        text += (f"; {imu_gaps_said(model.imu.gaps, model.window)}: fitted on such parts, each with its own start "
-                 f"velocity and gravity, the offset may lie up to {GAPPY_FIT_OFF_S:g} s off, more than its sigma says: "
-                 "give dvl_time_offset_s if it is known, or let graphnav calibrate fit it against a reference")
+        text += (f"; {imu_gaps_said(model.imu.gaps, model.window)}, with its own start velocity and gravity: the "
+                 f"offset may lie up to {GAPPY_FIT_OFF_S:g} s off, more than its sigma says: give dvl_time_offset_s "
+                 "if it is known, or let graphnav calibrate fit it against a reference")
     warnings.warn(f"{dvl.source}: {text}", RuntimeWarning, stacklevel=2)
     add_note(meta, "dvl", text)
     if not est.clear:
