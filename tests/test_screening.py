@@ -3154,6 +3154,38 @@ def test_a_stall_stamped_0_after_zeroed_filler_is_told_to_be_deleted_not_sorted(
         stamp_order(t, rows, np.arange(150) + 2, "imu.csv", "t", False, None, "imu")
 
 
+def test_a_stall_stamped_0_after_zeroed_filler_on_a_clock_far_from_0_is_told_to_be_deleted(akit_dir, tmp_path):
+    """Trajectory1 as a column map on a clock 3600 s (or Unix time, 1.7e9 s) from 0, with 21 IMU rows of filler
+    stamped 0 and 10 rows repeating the last reading stamped 0 after them: refused as 'IMU gap of 3700.31 s after
+    t = 0.000 s ... split the mission there' (or 'stamps span 1.7e+09 s (more than a year ...)'), at line 10033,
+    after them, before the stamps' order was judged. The rows stamped 0 are named, as where the clock starts at 0,
+    with or without repair; deleting them, the file is read."""
+    from graphnav.core.screening import IMU_FILLER
+    from graphnav.missions import load_mission
+    from tests.test_generic_csv import _akit_as_column_map
+
+    def shifted(offset, stall):
+        def edit(lines):
+            body = [f"{float(x.split(',')[0]) + offset:.6f},{x.split(',', 1)[1]}" for x in lines[1:]]
+            body[10000:10021] = ["0,0,0,0,0,0,0"] * 21
+            return lines[:1] + body[:10021] + ["0," + body[9999].split(",", 1)[1]] * 10 * stall + body[10031:]
+        return edit
+    told = (r"line 10023, field 'Time \[s\]': time stamp out of order \(.* then 0\.0, as written\); 10 row\(s\) "
+            r"holding values stamped 0 s after later stamps, at line\(s\) 10023, .*10032: their stamps were zeroed, "
+            r"as the 21 all-zero rows of a logger's filler .* delete those rows or write their stamps")
+    for offset in (3600.0, 1.7e9):
+        data, config = _akit_as_column_map(akit_dir, tmp_path / f"{offset:g}", imu_edit=shifted(offset, True))
+        _edit_lines(data / "dvl.csv", lambda lines: lines[:1] + [
+            f"{float(x.split(',')[0]) + offset:.6f},{x.split(',', 1)[1]}" for x in lines[1:]])
+        for repair in (False, True):
+            with pytest.raises(DataError, match=told), warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                load_mission(data, config, repair=repair)
+    _edit_lines(data / "imu.csv", lambda lines: lines[:10022] + lines[10032:])
+    m, _ = _quiet_load(load_mission, data, config)
+    assert m.meta["streams"]["imu"]["refused"] == {IMU_FILLER: 21} and len(m.imu.t) == 40000 - 31
+
+
 def test_screening_a_mission_twice_counts_each_refusal_once():
     """A mission with one IMU row beyond full scale, screened twice (the mission passed twice, or the mission screened
     passed again): the second pass counted the refusal again in the meta they all shared ('f_b beyond 156.906
