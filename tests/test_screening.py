@@ -3210,6 +3210,32 @@ def test_screening_a_mission_twice_counts_each_refusal_once():
     assert again is first
 
 
+def test_a_screened_mission_with_a_stream_replaced_is_screened_again():
+    """A screened mission with its DVL (a beam at 6 m/s) or its depth (a 5000 m sample) replaced through
+    ``dataclasses.replace``, which shares the meta marked screened, then screened: it was returned as it was, the beam
+    and the depth kept without a word. The streams changed are screened, the first result's counts left as they were;
+    the mission screened, passed again, is still returned as it is."""
+    import copy
+    import dataclasses
+
+    from graphnav.io.screened import screen_mission
+    from graphnav.sim.simulate import simulate_mission
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        first = screen_mission(simulate_mission(duration_s=60.0, seed=5))
+        before = copy.deepcopy(first.meta["streams"])
+        beams = first.dvl.beams.copy()
+        beams[10] = 6.0
+        dvl = screen_mission(dataclasses.replace(first, dvl=dataclasses.replace(first.dvl, beams=beams)))
+        depth = first.depth.depth.copy()
+        depth[10] = 5000.0
+        deep = screen_mission(dataclasses.replace(first, depth=dataclasses.replace(first.depth, depth=depth)))
+        again = screen_mission(first)
+    assert not dvl.dvl.valid[10].any() and dvl.meta["streams"]["dvl"]["refused"] == {"beam beyond 4 m/s": 1}
+    assert deep.depth.depth.max() < 100.0 and deep.meta["streams"]["depth"]["refused"] == {"depth spike": 1}
+    assert first.meta["streams"] == before and again is first
+
+
 def test_nan_imu_rows_over_700_s_are_the_imu_stopping_as_deleted_rows_and_filler_are(akit_dir, tmp_path):
     """Trajectory1 as a column map with the IMU's second half 700 s later: the rows between deleted, or written at
     1 Hz as all-zero filler, were refused as the IMU stopping; written at 1 Hz with NaN values they loaded, the 700 s
