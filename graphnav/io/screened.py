@@ -62,7 +62,7 @@ def screen_mission(mission: Mission) -> Mission:
     screened (``meta["screened"]``: :func:`_streams_digest` of its streams), and screening it again returns it as it
     is, unless a stream was changed since (the meta is shared by ``dataclasses.replace``: a DVL or depth replaced after
     screening was returned unscreened, a 6 m/s beam or a 5000 m depth kept without a word)."""
-    if mission.meta.get("screened") == _streams_digest(mission):
+    if "screened" in mission.meta and mission.meta["screened"] == _streams_digest(mission):
         return mission
     meta = copy.deepcopy(mission.meta)
     cfg = mission.config
