@@ -3154,6 +3154,38 @@ def test_a_stall_stamped_0_after_zeroed_filler_is_told_to_be_deleted_not_sorted(
         stamp_order(t, rows, np.arange(150) + 2, "imu.csv", "t", False, None, "imu")
 
 
+def test_a_stall_stamped_0_after_zeroed_filler_on_a_clock_far_from_0_is_told_to_be_deleted(akit_dir, tmp_path):
+    """Trajectory1 as a column map on a clock 3600 s (or Unix time, 1.7e9 s) from 0, with 21 IMU rows of filler
+    stamped 0 and 10 rows repeating the last reading stamped 0 after them: refused as 'IMU gap of 3700.31 s after
+    t = 0.000 s ... split the mission there' (or 'stamps span 1.7e+09 s (more than a year ...)'), at line 10033,
+    after them, before the stamps' order was judged. The rows stamped 0 are named, as where the clock starts at 0,
+    with or without repair; deleting them, the file is read."""
+    from graphnav.core.screening import IMU_FILLER
+    from graphnav.missions import load_mission
+    from tests.test_generic_csv import _akit_as_column_map
+
+    def shifted(offset, stall):
+        def edit(lines):
+            body = [f"{float(x.split(',')[0]) + offset:.6f},{x.split(',', 1)[1]}" for x in lines[1:]]
+            body[10000:10021] = ["0,0,0,0,0,0,0"] * 21
+            return lines[:1] + body[:10021] + ["0," + body[9999].split(",", 1)[1]] * 10 * stall + body[10031:]
+        return edit
+    told = (r"line 10023, field 'Time \[s\]': time stamp out of order \(.* then 0\.0, as written\); 10 row\(s\) "
+            r"holding values stamped 0 s after later stamps, at line\(s\) 10023, .*10032: their stamps were zeroed, "
+            r"as the 21 all-zero rows of a logger's filler .* delete those rows or write their stamps")
+    for offset in (3600.0, 1.7e9):
+        data, config = _akit_as_column_map(akit_dir, tmp_path / f"{offset:g}", imu_edit=shifted(offset, True))
+        _edit_lines(data / "dvl.csv", lambda lines: lines[:1] + [
+            f"{float(x.split(',')[0]) + offset:.6f},{x.split(',', 1)[1]}" for x in lines[1:]])
+        for repair in (False, True):
+            with pytest.raises(DataError, match=told), warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                load_mission(data, config, repair=repair)
+    _edit_lines(data / "imu.csv", lambda lines: lines[:10022] + lines[10032:])
+    m, _ = _quiet_load(load_mission, data, config)
+    assert m.meta["streams"]["imu"]["refused"] == {IMU_FILLER: 21} and len(m.imu.t) == 40000 - 31
+
+
 def test_screening_a_mission_twice_counts_each_refusal_once():
     """A mission with one IMU row beyond full scale, screened twice (the mission passed twice, or the mission screened
     passed again): the second pass counted the refusal again in the meta they all shared ('f_b beyond 156.906
@@ -3176,6 +3208,32 @@ def test_screening_a_mission_twice_counts_each_refusal_once():
         assert m.meta["streams"]["imu"]["refused"] == {"f_b beyond 156.906 m/s^2": 1}
         assert len(m.imu.t) == len(mission.imu.t) - 1
     assert again is first
+
+
+def test_a_screened_mission_with_a_stream_replaced_is_screened_again():
+    """A screened mission with its DVL (a beam at 6 m/s) or its depth (a 5000 m sample) replaced through
+    ``dataclasses.replace``, which shares the meta marked screened, then screened: it was returned as it was, the beam
+    and the depth kept without a word. The streams changed are screened, the first result's counts left as they were;
+    the mission screened, passed again, is still returned as it is."""
+    import copy
+    import dataclasses
+
+    from graphnav.io.screened import screen_mission
+    from graphnav.sim.simulate import simulate_mission
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        first = screen_mission(simulate_mission(duration_s=60.0, seed=5))
+        before = copy.deepcopy(first.meta["streams"])
+        beams = first.dvl.beams.copy()
+        beams[10] = 6.0
+        dvl = screen_mission(dataclasses.replace(first, dvl=dataclasses.replace(first.dvl, beams=beams)))
+        depth = first.depth.depth.copy()
+        depth[10] = 5000.0
+        deep = screen_mission(dataclasses.replace(first, depth=dataclasses.replace(first.depth, depth=depth)))
+        again = screen_mission(first)
+    assert not dvl.dvl.valid[10].any() and dvl.meta["streams"]["dvl"]["refused"] == {"beam beyond 4 m/s": 1}
+    assert deep.depth.depth.max() < 100.0 and deep.meta["streams"]["depth"]["refused"] == {"depth spike": 1}
+    assert first.meta["streams"] == before and again is first
 
 
 def test_nan_imu_rows_over_700_s_are_the_imu_stopping_as_deleted_rows_and_filler_are(akit_dir, tmp_path):

@@ -1444,6 +1444,21 @@ def _zeroed_stamps(t: np.ndarray, lines: np.ndarray, filler_lines: np.ndarray | 
             "file's start); delete those rows or write their stamps")
 
 
+def zeroed_stamps_error(t: np.ndarray, lines: np.ndarray, filler_lines: np.ndarray | None, source: str,
+                        field: str) -> DataError | None:
+    """The DataError naming the rows stamped exactly 0 after later stamps ``t`` (as written, in the file's unit;
+    ``lines`` their file lines, ``filler_lines`` the filler taken out, :func:`_zeroed_stamps`), or None. For a reader
+    whose unit and gap checks come before :func:`stamp_order`: on a clock far from 0 (Unix time, an offset), the step
+    from such rows back to it was refused as a span over a year or as an IMU gap to split the mission at, naming the
+    line after them."""
+    told = _zeroed_stamps(t, lines, filler_lines)
+    if not told:
+        return None
+    i = int(np.flatnonzero(t[1:] < np.maximum.accumulate(t)[:-1])[0]) + 1
+    return DataError(f"time stamp out of order ({float(np.max(t[:i]))!r} then 0.0, as written); {told}", source,
+                     int(lines[i]), field)
+
+
 def exact_copies(t: np.ndarray, rows: np.ndarray) -> tuple[np.ndarray, bool]:
     """``(indexes, repeat)``: the indexes (file order, sorted) of the rows (``rows`` (N,k) as read, with their stamps'
     column; ``t`` (N,) s) equal to the row before them in time in stamp and every value (NaN equal to NaN), and

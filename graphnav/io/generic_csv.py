@@ -115,6 +115,7 @@ from graphnav.core.screening import (
     with_position_spikes,
     zero_pings,
     zeroed_filler,
+    zeroed_stamps_error,
 )
 from graphnav.core.streams import add_note, count_read, count_refused, say_doubted
 from graphnav.io.dvl_frame import columns_to_body
@@ -390,8 +391,13 @@ def _read(root: Path, data_file: Path | None, spec: dict, stream: str, groups: d
     key = f"csv_columns.{stream}.time_unit" if "time_unit" in spec else "csv_columns.time_unit"
     # the IMU is read first: a global unit its stamps passed, another stream's contradict, is that stream's to declare
     own = None if stream == "imu" or "time_unit" in spec else f"csv_columns.{stream}.time_unit"
-    t = stamps_in_seconds(t, stream, str(path), meta, declared=unit, field=spec["t"], lines=lines, key=key,
-                          stream_key=own)
+    try:
+        t = stamps_in_seconds(t, stream, str(path), meta, declared=unit, field=spec["t"], lines=lines, key=key,
+                              stream_key=own)
+    except DataError as e:
+        # rows stamped 0 behind a clock far from 0 (Unix time) were refused as a span over a year or an IMU gap to
+        # split the mission at, naming the line after them: they are to be deleted, as stamp_order says where it can
+        raise zeroed_stamps_error(t, lines, zeroed_lines, str(path), spec["t"]) or e
     if t_imu is not None and len(t_imu):
         if unit is not None:
             check_declared_time_span(t, t_imu, stream, str(path), unit, key, spec["t"], own)

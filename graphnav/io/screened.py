@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import copy
 import dataclasses
+import hashlib
 
 import numpy as np
 
@@ -58,8 +59,10 @@ def screen_mission(mission: Mission) -> Mission:
     screened it (``meta["imu_screened"]``), or the rows holding no measurement (``meta["imu_unmeasured_screened"]``,
     a bag's), is not screened for it again. The mission passed in is left as it is (its meta copied before anything is
     counted: screened twice, each count was made twice in the meta both shared); the mission returned is marked
-    screened (``meta["screened"]``), and screening it again returns it as it is."""
-    if mission.meta.get("screened"):
+    screened (``meta["screened"]``: :func:`_streams_digest` of its streams), and screening it again returns it as it
+    is, unless a stream was changed since (the meta is shared by ``dataclasses.replace``: a DVL or depth replaced after
+    screening was returned unscreened, a 6 m/s beam or a 5000 m depth kept without a word)."""
+    if "screened" in mission.meta and mission.meta["screened"] == _streams_digest(mission):
         return mission
     meta = copy.deepcopy(mission.meta)
     cfg = mission.config
@@ -112,8 +115,23 @@ def screen_mission(mission: Mission) -> Mission:
         gt = _kept(meta, "gt", gt, bad)
     speed_reasons = [r for r in masks if r != NO_BOTTOM_LOCK]      # what a velocity unit changes
     check_refused_fraction(meta, advice=_declared_unit_advice(meta, imu, dvl.t, v, cfg, speed_reasons))
-    return dataclasses.replace(mission, imu=imu, dvl=dvl, depth=depth, gt=gt,
-                               meta={**meta, "imu_screened": True, "screened": True})
+    out = dataclasses.replace(mission, imu=imu, dvl=dvl, depth=depth, gt=gt, meta={**meta, "imu_screened": True})
+    out.meta["screened"] = _streams_digest(out)
+    return out
+
+
+def _streams_digest(mission: Mission) -> str:
+    """A digest of the values of a mission's IMU, DVL, depth and GT (every numeric array of each): the same for the
+    streams :func:`screen_mission` returned, another once one is replaced or changed in place."""
+    h = hashlib.sha1()
+    for stream in (mission.imu, mission.dvl, mission.depth, mission.gt):
+        h.update(b"|")
+        for f in dataclasses.fields(stream) if stream is not None else ():
+            value = getattr(stream, f.name)
+            if isinstance(value, np.ndarray) and value.dtype != object:
+                h.update(f"{f.name}{value.shape}{value.dtype}".encode())
+                h.update(np.ascontiguousarray(value).tobytes())
+    return h.hexdigest()
 
 
 def _declared_unit_advice(meta: dict, imu, t: np.ndarray, v: np.ndarray, cfg: SensorConfig,
