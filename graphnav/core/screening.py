@@ -870,7 +870,7 @@ def _left_by(rows: int, zeros: int, dead: int, lone: int = 0, row: str = "IMU ro
     was said to hold NaN); the rows alone hold a measurement, and are named beside them, not counted among them.
     ``row``: what the file calls a row (a bag's: a message of its topic)."""
     rows -= lone
-    alone = f" and {lone} alone between them, which bridge{'s' * (lone == 1)} nothing" if lone else ""
+    alone = f" and {lone} alone between them (which bridge{'s' * (lone == 1)} nothing)" if lone else ""
     if zeros == rows:
         return f"{rows} all-zero {row} (a logger's filler){alone}"
     kinds = [f"{zeros} all-zero: a logger's filler"] * bool(zeros) + [
