@@ -44,8 +44,8 @@ from scipy.stats import norm, wilcoxon
 from graphnav.calibration.reference import _sigma_from_curvature
 from graphnav.core.dvl_kinematics import (COARSE_MAX_WINDOWS, MAX_CLOCK_GAP_S, MAX_WINDOW_GAP_S, MIN_OVERLAP_S,
                                           ImuIntegrals, across_outages_model, gaps_said, imu_gaps, imu_gaps_said,
-                                          imu_integrals, offset_grid, outage_cut_model, search_overlap,
-                                          still_velocity_said, with_enough_pings)
+                                          imu_integrals, offset_grid, outage_cut_model, refine_reach, refined_offset,
+                                          search_overlap, still_velocity_said, with_enough_pings)
 from graphnav.core.errors import DataError
 from graphnav.core.streams import (OFFSET_KEYS, add_note, count_doubted, offset_on_written_stamps, say_doubted,
                                    set_span)
@@ -119,15 +119,6 @@ CLOCK_SIGMA_WARN_S = 0.1
 #: (+16.5 and +15.3 s taken); the simulated logs those windows are for (200-800 s, 30-50 % of pings lost) hold 100-560
 #: pings, 5-28 windows.
 ACROSS_MIN_WINDOWS = 3
-#: The clock fit's refinement keeps its reach of two grid steps each way where the pings fitted at every offset on it
-#: are at least this share of those fitted at the coarse offset, else takes a narrower one (:func:`_refine_reach`). On
-#: the ten A-KIT column maps with 0.4 s of IMU rows missing every 7 s (1 Hz pings) a reach of +-1 s keeps none of them,
-#: +-0.5 s 49-52 %, +-0.25 s 88-89 %, +-0.125 s 93-95 %; their gapless copies keep 99.5-100 % at +-1 s.
-REFINE_MIN_SHARE = 0.75
-#: ... and a narrowed reach is centred on its fit until that lies this close (s) to its centre (:func:`_refined`), a
-#: tenth of the IMU grid the cost is interpolated on, or for at most this many moves.
-REFINE_SETTLED_S = 0.005
-REFINE_MAX_MOVES = 20
 #: How far (s) an offset fitted on such a narrowed reach was found from its gapless copy's, beyond its sigma: the ten
 #: A-KIT column maps with 0.4 s of IMU rows missing every 7 s, 0.004-0.10 s (Trajectory1 -0.103 s, 5 sigmas;
 #: Trajectory13 +0.087 s, 3 sigmas), sigmas 0.01-0.03 s: said with the offset taken (:func:`align_stream_clocks`).
@@ -201,9 +192,9 @@ class ClockOffset:
         lead_sigmas: how clearly the peak leads the next best offset (further than :data:`PEAK_EXCLUSION_S`) over
             the windows both keep, in sigmas (the signed-rank test of their SSE differences, :func:`_lead_over`); NaN
             where not measured (a GT's clock, or under :data:`SPREAD_MIN_WINDOWS` such windows).
-        between_imu_gaps: fitted on the reach :func:`_refine_reach` narrows where the IMU's gaps sweep over most pings
-            (windows cut into parts, each with its own ``v0`` and ``g0``): the sigma leaves out what the parts take
-            (:data:`GAPPY_FIT_OFF_S`).
+        between_imu_gaps: fitted on the reach `dvl_kinematics.refine_reach` narrows where the IMU's gaps sweep
+            over most pings (windows cut into parts, each with its own ``v0`` and ``g0``): the sigma leaves out what
+            the parts take (:data:`GAPPY_FIT_OFF_S`).
     """
 
     offset_s: float
@@ -364,67 +355,14 @@ def estimate_dvl_clock_offset(imu, dvl, config=None, *, min_overlap_s: float = M
                         "of overlap puts two of those windows on the IMU span: give the DVL clock's offset by hand "
                         "(dvl_time_offset_s, s added to the DVL stamps) if it is known", dvl.source, field="t")
 
-    x, use = _refined(model, coarse, h)
+    x, use = refined_offset(model, coarse, h)
     explained, sse, _ = model.score(x, use)
     pings = int(use.sum())
     rms = float(np.sqrt(sse / max(3 * pings, 1)))
     overlap = float(min(ints.t[-1], t_dvl[-1] + x) - max(ints.t[0], t_dvl[0] + x))
-    between = bool(len(ints.gaps)) and 0.0 < _refine_reach(model, coarse, h)[0] < 2 * h
+    between = bool(len(ints.gaps)) and 0.0 < refine_reach(model, coarse, h)[0] < 2 * h
     return ClockOffset(x, _offset_sigma(model, x, use), max(explained, best), max(second, 0.0), coarse, rms, overlap,
                        pings, lead_sigmas=_lead_over(model, x, rival, h), between_imu_gaps=between)
-
-
-def _refine_reach(model, coarse: float, h: float) -> tuple[float, np.ndarray]:
-    """``(reach, use)``: how far (s) either way of the coarse offset ``coarse`` (grid step ``h``, s) the clock fit of
-    ``model`` refines it, and the pings it fits there, the same at every offset it tries (``model.pings_over``): one
-    that left some out would fit the rest better. Two grid steps each way: a ping entering the span moves the coarse
-    scores by its share (a 60 s simulated log's best lay 0.7 s from its coarse offset). Where the IMU's gaps sweep
-    over so many pings on that reach that it keeps under :data:`REFINE_MIN_SHARE` of those fitted at the coarse offset
-    (0.4 s of IMU rows missing every 7 s beside 1 Hz pings: none in a part of 6 pings between two gaps, and the fit
-    stopped at the reach's end, +1 s, on every log), the reach of a grid step, a half or a quarter that keeps most of
-    them is taken (:func:`_refined` moves it along); where none keeps two windows, the coarse offset stands (reach
-    0)."""
-    kept = []
-    for reach in (2 * h, h, h / 2, h / 4):
-        use = model.pings_over(coarse - reach, coarse + reach)
-        if np.count_nonzero(use.any(axis=1)) >= 2:
-            kept.append((reach, use))
-    if not kept:
-        return 0.0, model.pings(coarse)
-    reach, use = kept[0]
-    if not len(model.imu.gaps) or use.sum() >= REFINE_MIN_SHARE * model.pings(coarse).sum():
-        return reach, use
-    return max(kept, key=lambda k: int(k[1].sum()))
-
-
-def _refined(model, coarse: float, h: float, cost=None, xatol: float = 1e-4) -> tuple[float, np.ndarray]:
-    """``(x, use)``: the clock fit's offset (s) refined from the coarse offset ``coarse`` (grid step ``h``, s) to
-    ``xatol`` (s) by minimising ``model``'s residual (or ``cost(offset, use)``: the earth-frame check's readings) over
-    the pings ``use`` (win, window), the same at every offset tried (:func:`_refine_reach`). A reach narrowed for the
-    IMU's gaps is centred again on its fit, with the pings kept over it there, until the fit lies within
-    :data:`REFINE_SETTLED_S` of its centre (or the reach would pass the full two grid steps from ``coarse``): the pings
-    a reach keeps pull its fit towards its centre, and one stopped at its end or off its centre is not the offset the
-    pings about it put. The ten A-KIT column maps with 0.4 s of IMU rows missing every 7 s were fitted on the +-0.5 s
-    reach alone (under half their pings): 0.01-0.34 s from their gapless offsets (sigma 0.02-0.05 s); on +-0.125 s
-    moved until settled, 0.004-0.10 s (Trajectory1 -0.103 s, Trajectory13 +0.087 s, the other eight within 0.035 s).
-    A moved reach stopped where its fit lay anywhere inside it left Trajectory6 0.175 s off: each reach centred from
-    there on found the fit further along, to its gapless offset."""
-    reach, use = _refine_reach(model, coarse, h)
-    if reach == 0.0:
-        return coarse, use
-    cost = cost or (lambda o, pings: model.score(o, pings)[1])
-    centre = coarse
-    for _ in range(REFINE_MAX_MOVES):
-        x = float(minimize_scalar(lambda o: cost(o, use), bounds=(centre - reach, centre + reach), method="bounded",
-                                  options={"xatol": xatol}).x)
-        there = float(np.clip(x, coarse - 2 * h + reach, coarse + 2 * h - reach))
-        if reach == 2 * h or abs(there - centre) < REFINE_SETTLED_S:
-            return x, use
-        moved = model.pings_over(there - reach, there + reach)
-        if np.count_nonzero(moved.any(axis=1)) < 2:
-            return x, use
-        centre, use = there, moved
-    return x, use
 
 
 def _imu_gaps_starve(model, t_dvl: np.ndarray, min_overlap_s: float, period: float, source: str,
@@ -444,8 +382,8 @@ def _imu_gaps_starve(model, t_dvl: np.ndarray, min_overlap_s: float, period: flo
 def _lead_over(model, x: float, rival: float, h: float) -> float:
     """How clearly the IMU explains the DVL better at the offset ``x`` (s) than at ``rival`` (s; the coarse scan's best
     further than :data:`PEAK_EXCLUSION_S` from it, taken at its own best within its grid step ``h``, s, or the narrower
-    reach :func:`_refine_reach` takes beside the IMU's gaps: its +-0.5 s left the lead unmeasured (NaN) on A-KIT logs
-    losing 0.4 s of IMU rows every 7 s, Trajectory3 3.30 sigmas as its gapless copy now): the one-sided
+    reach `dvl_kinematics.refine_reach` takes beside the IMU's gaps: its +-0.5 s left the lead unmeasured (NaN) on
+    A-KIT logs losing 0.4 s of IMU rows every 7 s, Trajectory3 3.30 sigmas as its gapless copy now): the one-sided
     Wilcoxon signed-rank test of the windows' SSE at ``rival`` less that at ``x`` (the windows both keep, on the pings
     both keep; the windows as the independent samples), as the standard normal deviate of its p-value. Ranks, not the
     mean over the spread: a window or two in a turn, where the vehicle's accelerations tell most, differ tens of times
@@ -453,7 +391,7 @@ def _lead_over(model, x: float, rival: float, h: float) -> float:
     the mean, 5.4 by the ranks). NaN without :data:`SPREAD_MIN_WINDOWS` such windows (or without a rival)."""
     if not np.isfinite(rival):
         return float("nan")
-    reach, near_rival = _refine_reach(model, rival, h / 2)        # its grid step each way, narrowed as the peak's
+    reach, near_rival = refine_reach(model, rival, h / 2)        # its grid step each way, narrowed as the peak's
     if reach == 0.0:
         return float("nan")
     both = with_enough_pings(model.pings(x) & near_rival)

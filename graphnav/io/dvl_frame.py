@@ -449,8 +449,8 @@ def _own_offsets(t_dvl: np.ndarray, v: np.ndarray, t_imu: np.ndarray, f_b: np.nd
     offsets fit. The search alone would pick the offset where the velocity read as body fits best, and an earth-fixed
     one read there fits the body kinematics better than at its own clock. NaN where fewer than two windows are fitted
     at both. Arguments as :func:`kinematics_ratio`, the DVL stamps on their own clock."""
-    from graphnav.calibration.clock import _refined
-    from graphnav.core.dvl_kinematics import dvl_window_model, imu_integrals, offset_grid, search_overlap
+    from graphnav.core.dvl_kinematics import (dvl_window_model, imu_integrals, offset_grid, refined_offset,
+                                              search_overlap)
     from graphnav.core.mission import DvlData, no_beams
     nan = (float("nan"),) * 4
     t, v, imu = _finite_pings_and_imu(t_dvl, v, t_imu, f_b, omega_b)
@@ -477,7 +477,7 @@ def _own_offsets(t_dvl: np.ndarray, v: np.ndarray, t_imu: np.ndarray, f_b: np.nd
     for k in (0, 1):
         best = float(grid[int(np.argmin(scores[:, k]))])
         # the same pings, in the same parts between the IMU's gaps, at every offset tried, as the clock search's
-        offsets.append(_refined(model, best, h, lambda o, use: score(model, o, use, k), xatol=1e-3)[0])
+        offsets.append(refined_offset(model, best, h, lambda o, use: score(model, o, use, k), xatol=1e-3)[0])
     common = model.pings(offsets[0]) & model.pings(offsets[1])
     body, earth = _readings(model, offsets[0], common)[0], _readings(model, offsets[1], common)[1]
     fitted = np.isfinite(body) & np.isfinite(earth)
