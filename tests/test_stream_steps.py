@@ -544,3 +544,14 @@ def test_a_step_of_every_streams_clock_is_judged_on_a_20_hz_imu_too():
     nav, out, said = _run(m.config, _stepped_at(recs, 5.0, T_TURN))
     assert nav.info["gaps_in_every_stream"] == {"step": 1}, said
     assert _heading_off_at_end(out, clean, 5.0) < 2.0 and out[-1].health == "ok"
+
+
+def test_a_second_step_before_the_first_is_judged_is_judged_too(records):
+    """Every stream's clock stepped 5 s ahead in the turn and again 0.3 s later, before the 0.5 s that judge the
+    first had come: the second was fitted inside the first's window and bridged unjudged, 23.3 deg of turn never
+    made, "ok". Each is judged now (the first by the 0.3 s between): both joined, the heading within 2 deg."""
+    config, recs = records
+    _, clean, _ = _run(config, recs)
+    nav, out, said = _run(config, _stepped_at(_stepped_at(recs, 5.0, T_TURN + 0.3), 5.0, T_TURN))
+    assert nav.info["gaps_in_every_stream"] == {"step": 2}, said
+    assert _heading_off_at_end(out, clean, 10.0) < 2.0

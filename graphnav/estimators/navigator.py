@@ -992,10 +992,10 @@ class Navigator:
             return self._align(stream, t, payload)
         if stream == "imu":
             return self._feed_imu(t, *payload)
+        self._other_since_imu = min(self._other_since_imu, t)
         if self._judging is not None:
             self._judging["events"].append((stream, t, payload))
             return []
-        self._other_since_imu = min(self._other_since_imu, t)
         if stream in PING_STREAMS:
             kfs = self.keyframer.add_ping(*payload)
         else:
@@ -1009,17 +1009,22 @@ class Navigator:
         from a loss (:meth:`_judge_gap`)."""
         judging, before = self._judging, self._imu_before
         other, self._other_since_imu = self._other_since_imu, math.inf
+        out = []
+        if judging is not None and t - judging["after"][-1][0] >= JUDGED_GAP_MIN_S and other >= t - AFTER_GAP_S:
+            # a second gap before the window after the first filled: the first is judged by the samples between
+            # (held on, this one would be fitted inside that window and bridged unjudged), this one on its own
+            out, judging = self._judge_gap(), None
         if judging is None and before and t - before[-1][0] >= JUDGED_GAP_MIN_S and other >= t - AFTER_GAP_S:
             judging = self._judging = {"after": [], "events": []}
         if judging is not None:
             judging["after"].append((t, f, w))
             judging["events"].append(("imu", t, (f, w)))
-            return self._judge_gap() if side_full(judging["after"]) else []
+            return out + self._judge_gap() if side_full(judging["after"]) else out
         before.append((t, f, w))
         if len(before) > MIN_SAMPLES and before[0][0] < t - JUDGE_WINDOW_S:
             before.popleft()
         kfs = self.keyframer.add_imu(t, f, w)
-        return self._process(kfs) if kfs else []
+        return out + self._process(kfs) if kfs else out
 
     def _judge_gap(self) -> list[EpochEstimate]:
         """Decide the gap held (:func:`~graphnav.estimators.clock_steps.judge_gap`), say and count the verdict, and
@@ -1060,6 +1065,7 @@ class Navigator:
                 self.keyframer.add_imu(t, *payload)
             self._imu_before.append((t, *payload))
             out += self._process(kfs) if kfs else []
+        self._other_since_imu = math.inf        # the samples replayed came before the IMU sample that ends them
         return out
 
     def _process(self, kfs) -> list[EpochEstimate]:
