@@ -8,6 +8,7 @@ import warnings
 import numpy as np
 import pytest
 
+from graphnav.core.config import SensorConfig
 from graphnav.core.errors import DataError
 from graphnav.estimators.navigator import Navigator
 from graphnav.estimators.replay import mission_records
@@ -529,3 +530,28 @@ def test_a_gap_in_every_stream_the_imu_cannot_judge_is_bridged_with_the_doubt_sa
     after = [e for e in out if e.t > t_gap]
     assert after and all(e.health != "ok" and "may be a step of their clock, not a loss" in e.health_why
                          for e in after)
+
+
+def test_a_step_of_every_streams_clock_is_judged_on_a_20_hz_imu_too():
+    """A 20 Hz IMU has 10 samples in the 0.5 s either side of a gap, under the 20 a fit needs: every gap in every
+    stream was "undecided" for "under 0.5 s of IMU samples" (there were 0.5 s), a 5 s step in the turn bridged with
+    24.2 deg of turn it never made and the rest of the run degraded. The sides now hold 20 samples (1 s): joined as a
+    step, the heading within 2 deg of the clean run's, "ok"."""
+    config = SensorConfig(imu_rate_hz=20.0)
+    m = simulate_mission(duration_s=200.0, seed=1, config=config, gt_rate_hz=5.0)
+    recs = list(mission_records(m, config=False))
+    _, clean, _ = _run(m.config, recs)
+    nav, out, said = _run(m.config, _stepped_at(recs, 5.0, T_TURN))
+    assert nav.info["gaps_in_every_stream"] == {"step": 1}, said
+    assert _heading_off_at_end(out, clean, 5.0) < 2.0 and out[-1].health == "ok"
+
+
+def test_a_second_step_before_the_first_is_judged_is_judged_too(records):
+    """Every stream's clock stepped 5 s ahead in the turn and again 0.3 s later, before the 0.5 s that judge the
+    first had come: the second was fitted inside the first's window and bridged unjudged, 23.3 deg of turn never
+    made, "ok". Each is judged now (the first by the 0.3 s between): both joined, the heading within 2 deg."""
+    config, recs = records
+    _, clean, _ = _run(config, recs)
+    nav, out, said = _run(config, _stepped_at(_stepped_at(recs, 5.0, T_TURN + 0.3), 5.0, T_TURN))
+    assert nav.info["gaps_in_every_stream"] == {"step": 2}, said
+    assert _heading_off_at_end(out, clean, 10.0) < 2.0

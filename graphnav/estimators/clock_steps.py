@@ -23,7 +23,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-#: the IMU readings fitted on either side of a gap, s (the Navigator holds this long after it before deciding)
+#: the IMU readings fitted on either side of a gap, s (the Navigator holds this long after it before deciding), and
+#: at least :data:`MIN_SAMPLES` of them (an IMU slower than 40 Hz is fitted over that many: 1 s at 20 Hz)
 JUDGE_WINDOW_S = 0.5
 #: gaps in every stream shorter than this are bridged as before, unjudged (s): the two readings of a shorter gap
 #: differ by too little turn to matter and to tell
@@ -42,6 +43,12 @@ RATIO = 10.0
 MARGIN_CHI2 = 50.0
 #: samples needed on either side to judge
 MIN_SAMPLES = 20
+
+
+def side_full(samples) -> bool:
+    """Whether the IMU samples ``samples`` ((t s, ...) each, in stamp order) on one side of a gap are enough to fit:
+    :data:`JUDGE_WINDOW_S` of them and at least :data:`MIN_SAMPLES`."""
+    return len(samples) >= MIN_SAMPLES and samples[-1][0] - samples[0][0] >= JUDGE_WINDOW_S
 
 
 @dataclass

@@ -75,7 +75,8 @@ from graphnav.core.screening import (CLOCK_JUMP_CONFIRM_S, EXACT_COPY, IMU_STALL
                                      NudgedCopies, RecentRepeats, StreamScreen, clock_jump_words)
 from graphnav.estimators.align import GAP_JOINED_S, AlignOptions
 from graphnav.estimators.backends import BACKENDS, make_backend
-from graphnav.estimators.clock_steps import AFTER_GAP_S, JUDGE_WINDOW_S, JUDGED_GAP_MIN_S, judge_gap
+from graphnav.estimators.clock_steps import (AFTER_GAP_S, JUDGE_WINDOW_S, JUDGED_GAP_MIN_S, MIN_SAMPLES, judge_gap,
+                                             side_full)
 from graphnav.estimators.coasting import CoastingMonitor, SigmaMonitor
 from graphnav.estimators.ekf import EkfOptions
 from graphnav.estimators.graph.builder import preintegration_gravity, preintegration_params
@@ -991,10 +992,10 @@ class Navigator:
             return self._align(stream, t, payload)
         if stream == "imu":
             return self._feed_imu(t, *payload)
+        self._other_since_imu = min(self._other_since_imu, t)
         if self._judging is not None:
             self._judging["events"].append((stream, t, payload))
             return []
-        self._other_since_imu = min(self._other_since_imu, t)
         if stream in PING_STREAMS:
             kfs = self.keyframer.add_ping(*payload)
         else:
@@ -1004,20 +1005,26 @@ class Navigator:
     def _feed_imu(self, t: float, f: tuple, w: tuple) -> list[EpochEstimate]:
         """An IMU sample released to the running estimator. After a gap of at least ``JUDGED_GAP_MIN_S`` in which no
         other stream has a sample either, it and everything released after it are held until ``JUDGE_WINDOW_S`` of
-        IMU samples past the gap tell a step of the clock from a loss (:meth:`_judge_gap`)."""
+        IMU samples past the gap (and ``MIN_SAMPLES``: a slow IMU's 0.5 s are too few to fit) tell a step of the clock
+        from a loss (:meth:`_judge_gap`)."""
         judging, before = self._judging, self._imu_before
         other, self._other_since_imu = self._other_since_imu, math.inf
+        out = []
+        if judging is not None and t - judging["after"][-1][0] >= JUDGED_GAP_MIN_S and other >= t - AFTER_GAP_S:
+            # a second gap before the window after the first filled: the first is judged by the samples between
+            # (held on, this one would be fitted inside that window and bridged unjudged), this one on its own
+            out, judging = self._judge_gap(), None
         if judging is None and before and t - before[-1][0] >= JUDGED_GAP_MIN_S and other >= t - AFTER_GAP_S:
             judging = self._judging = {"after": [], "events": []}
         if judging is not None:
             judging["after"].append((t, f, w))
             judging["events"].append(("imu", t, (f, w)))
-            return self._judge_gap() if t - judging["after"][0][0] >= JUDGE_WINDOW_S else []
+            return out + self._judge_gap() if side_full(judging["after"]) else out
         before.append((t, f, w))
-        if before[0][0] < t - JUDGE_WINDOW_S:
+        if len(before) > MIN_SAMPLES and before[0][0] < t - JUDGE_WINDOW_S:
             before.popleft()
         kfs = self.keyframer.add_imu(t, f, w)
-        return self._process(kfs) if kfs else []
+        return out + self._process(kfs) if kfs else out
 
     def _judge_gap(self) -> list[EpochEstimate]:
         """Decide the gap held (:func:`~graphnav.estimators.clock_steps.judge_gap`), say and count the verdict, and
@@ -1028,8 +1035,8 @@ class Navigator:
         period = self.keyframer.imu_period.period_s
         verdict = judge_gap(before, after, period)
         kind = "undecided" if verdict is None else verdict.kind
-        why = verdict.why if verdict is not None else (f"under {JUDGE_WINDOW_S:g} s of IMU samples on a side of it "
-                                                         "to judge by")
+        why = verdict.why if verdict is not None else (f"under {MIN_SAMPLES} IMU samples on a side of it to judge "
+                                                         "by")
         self.gaps_judged[kind] = self.gaps_judged.get(kind, 0) + 1
         (t0, _, w0), (t1, _, w1) = before[-1], after[0]
         tau = t1 - t0
@@ -1058,6 +1065,7 @@ class Navigator:
                 self.keyframer.add_imu(t, *payload)
             self._imu_before.append((t, *payload))
             out += self._process(kfs) if kfs else []
+        self._other_since_imu = math.inf        # the samples replayed came before the IMU sample that ends them
         return out
 
     def _process(self, kfs) -> list[EpochEstimate]:
