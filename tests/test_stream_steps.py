@@ -464,6 +464,10 @@ def test_a_numerical_failure_of_the_smoother_ends_as_a_said_loss_of_track_not_a_
                for w in said), said
     health = nav.backend.monitor.summary()
     assert health["diverged_at_end"] and health["lost_track_at"] == 70.0
+    # the run's health says it, and where its estimates end: the catch-up run's through the alignment window stand
+    from graphnav.estimators.health import run_health
+    assert any(w.startswith("lost track at t = 70.000 s (the DVL innovation covariance cannot be inverted")
+               and w.endswith(": no estimate after t = 200.000 s") for w in run_health(health)["why"]), health
     assert len(out) == 201 and out[-1].health == "diverged"
 
 
@@ -529,3 +533,18 @@ def test_a_gap_in_every_stream_the_imu_cannot_judge_is_bridged_with_the_doubt_sa
     after = [e for e in out if e.t > t_gap]
     assert after and all(e.health != "ok" and "may be a step of their clock, not a loss" in e.health_why
                          for e in after)
+
+
+def test_an_array_of_the_wrong_shape_in_the_smoother_is_a_programming_error_not_a_loss_of_track(records, monkeypatch):
+    """numpy raises the LinAlgError of a singular matrix also for an array of the wrong shape ("Last 2 dimensions of
+    the array must be square"): a bug in the estimator, which was said as a loss of track (the run ended diverged,
+    exit 3, with no traceback to find it by). It now ends the run as GTSAM's other RuntimeErrors do."""
+    from graphnav.estimators.backends import GraphBackend
+
+    def wrong_shape(self, kf):
+        return np.linalg.solve(np.zeros((2, 3)), np.zeros(2))
+
+    monkeypatch.setattr(GraphBackend, "process", wrong_shape)
+    config, recs = records
+    with pytest.raises(np.linalg.LinAlgError, match="must be square"):
+        _run(config, recs)

@@ -1070,7 +1070,10 @@ class Navigator:
                 if not (np.all(np.isfinite(est.p_n)) and np.all(np.isfinite(est.v_n))):
                     raise LostTrack(kf.t, f"its estimate is not finite (velocity {np.linalg.norm(est.v_n):.3g} m/s)")
             except (LostTrack, np.linalg.LinAlgError, RuntimeError) as exc:
-                if isinstance(exc, RuntimeError) and not is_indeterminant(exc):
+                # numpy's singular or not positive definite matrix is the numbers failing; an array of the wrong shape
+                # ("Last 2 dimensions of the array must be square") is a programming error, to be seen as one
+                if (isinstance(exc, RuntimeError) and not is_indeterminant(exc)
+                        or isinstance(exc, np.linalg.LinAlgError) and "dimension" in str(exc)):
                     raise
                 self._lose_track(kf.t, exc.why if isinstance(exc, LostTrack) else
                                  f"{type(exc).__name__}: {str(exc).strip().splitlines()[0]}")
@@ -1105,7 +1108,7 @@ class Navigator:
         monitor = self.backend.monitor
         if monitor is None or monitor.lost_at is not None:
             return
-        monitor.lost(t, why)
+        monitor.lost(t, why, self._latest.t if self._latest is not None else None)
         made = f" (to t = {self._latest.t:.3f} s)" if self._latest is not None else ""
         warnings.warn(f"navigator: {self.backend_name} lost track at t = {t:.3f} s ({why}); it takes no more data: "
                       f"the {self.n_estimates} estimate(s) made{made} stand, none follows", RuntimeWarning,
