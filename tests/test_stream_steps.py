@@ -548,3 +548,27 @@ def test_an_array_of_the_wrong_shape_in_the_smoother_is_a_programming_error_not_
     config, recs = records
     with pytest.raises(np.linalg.LinAlgError, match="must be square"):
         _run(config, recs)
+
+
+def test_no_state_is_propagated_after_a_loss_of_track(records, monkeypatch):
+    """The smoother lost track at 150 s of a 200 s stream: the estimates stop there, but state_at(199) propagated the
+    last one over the 50 s of IMU samples after it as if nothing had happened (a controller steering on it had no
+    word of the loss). Now it is refused naming the loss."""
+    from graphnav.core.errors import ConfigError
+    from graphnav.estimators.backends import GraphBackend
+    from graphnav.estimators.health import LostTrack
+    process = GraphBackend.process
+
+    def lost_at_150(self, kf):
+        if kf.t >= 150.0:
+            raise LostTrack(kf.t, "the DVL innovation covariance cannot be inverted")
+        return process(self, kf)
+
+    monkeypatch.setattr(GraphBackend, "process", lost_at_150)
+    config, recs = records
+    nav, out, _ = _run(config, recs)
+    assert nav.lost_track[0] == 150.0 and out[-1].t == 149.0
+    with pytest.raises(ConfigError, match=r"state_at\(199.000\): the fixed-lag estimator lost track at t = 150.000 s "
+                       r"\(the DVL innovation covariance cannot be inverted\); no state after its last estimate "
+                       r"\(t = 149.000 s\)"):
+        nav.state_at(199.0)

@@ -483,8 +483,13 @@ class Navigator:
         """The state at t (s), propagated from the latest estimate with the IMU samples received since
         (GTSAM preintegration with the estimated biases; the part of the newest sample up to t to first
         order), for t between the latest estimate and the newest IMU sample plus ``max_extrapolation_s``.
-        Repeated calls with increasing t integrate each new sample once (tens of microseconds a call)."""
+        Repeated calls with increasing t integrate each new sample once (tens of microseconds a call). After a loss
+        of track (:attr:`lost_track`) there is no state to give: a ConfigError naming it."""
         est = self.estimate()
+        if self.lost_track is not None:     # propagated on from the last estimate, it drifted unsaid for as long
+            raise ConfigError(f"state_at({t:.3f}): the {self.backend_name} estimator lost track at t = "
+                              f"{self.lost_track[0]:.3f} s ({self.lost_track[1]}); no state after its last estimate "
+                              f"(t = {est.t:.3f} s)")
         # the samples since the one covering the latest estimate: the keyframer's (released), then the ones
         # still in the reorder buffer; a sample keeps its index here until the next estimate
         recent = _Concat(self.keyframer.samples, self._imu_q)
