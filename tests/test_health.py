@@ -385,3 +385,25 @@ def test_batch_judges_its_smoothed_velocity_sigma(mems_outage):
     np.testing.assert_array_equal(state == "degraded", sigma > bound)
     assert state[-1] == "degraded" and open_end.info["sigma_v_degraded_now"]
     assert set(closed.info["health_state"]) == {"ok"} and closed.info["n_sigma_v_spans"] == 0
+
+
+def test_a_lost_track_is_said_in_the_run_health_with_its_time_not_only_the_divergence_before_it():
+    """A smoother diverged at 19 s and lost track on a number at 49 s of a 200 s stream: the run's health said only
+    "DIVERGED ... first: t=19.00 s: NIS ...", its interval [19, open] was renamed "lost track" as if lost at 19 s, and
+    neither the printed line nor summary.json's "why" said that no estimate followed 48 s (the online CSV ended there).
+    Now the interval keeps why it began and the loss is said with its time in both."""
+    mon = NisMonitor("graph fixed-lag")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        for k in range(20, 45):
+            mon.record(float(k), 1e6, 4)
+        mon.lost(49.0, "its estimate is not finite (velocity inf m/s)", 48.0)
+    health = mon.summary()
+    t0, t1, reason = health["divergence_intervals"][0]
+    assert len(health["divergence_intervals"]) == 1 and t1 is None and t0 < 49.0
+    assert reason.startswith("median NIS per dof") and reason.endswith(
+        "; lost track at t = 49.000 s: its estimate is not finite (velocity inf m/s)"), reason
+    said = "lost track at t = 49.000 s (its estimate is not finite (velocity inf m/s)): no estimate after t = 48.000 s"
+    run = run_health(health)
+    assert run["state"] == "diverged" and said in run["why"], run
+    assert said in health_line({**health, **run})

@@ -465,6 +465,10 @@ def test_a_numerical_failure_of_the_smoother_ends_as_a_said_loss_of_track_not_a_
                for w in said), said
     health = nav.backend.monitor.summary()
     assert health["diverged_at_end"] and health["lost_track_at"] == 70.0
+    # the run's health says it, and where its estimates end: the catch-up run's through the alignment window stand
+    from graphnav.estimators.health import run_health
+    assert any(w.startswith("lost track at t = 70.000 s (the DVL innovation covariance cannot be inverted")
+               and w.endswith(": no estimate after t = 200.000 s") for w in run_health(health)["why"]), health
     assert len(out) == 201 and out[-1].health == "diverged"
 
 
@@ -555,3 +559,42 @@ def test_a_second_step_before_the_first_is_judged_is_judged_too(records):
     nav, out, said = _run(config, _stepped_at(_stepped_at(recs, 5.0, T_TURN + 0.3), 5.0, T_TURN))
     assert nav.info["gaps_in_every_stream"] == {"step": 2}, said
     assert _heading_off_at_end(out, clean, 10.0) < 2.0
+
+
+def test_an_array_of_the_wrong_shape_in_the_smoother_is_a_programming_error_not_a_loss_of_track(records, monkeypatch):
+    """numpy raises the LinAlgError of a singular matrix also for an array of the wrong shape ("Last 2 dimensions of
+    the array must be square"): a bug in the estimator, which was said as a loss of track (the run ended diverged,
+    exit 3, with no traceback to find it by). It now ends the run as GTSAM's other RuntimeErrors do."""
+    from graphnav.estimators.backends import GraphBackend
+
+    def wrong_shape(self, kf):
+        return np.linalg.solve(np.zeros((2, 3)), np.zeros(2))
+
+    monkeypatch.setattr(GraphBackend, "process", wrong_shape)
+    config, recs = records
+    with pytest.raises(np.linalg.LinAlgError, match="must be square"):
+        _run(config, recs)
+
+
+def test_no_state_is_propagated_after_a_loss_of_track(records, monkeypatch):
+    """The smoother lost track at 150 s of a 200 s stream: the estimates stop there, but state_at(199) propagated the
+    last one over the 50 s of IMU samples after it as if nothing had happened (a controller steering on it had no
+    word of the loss). Now it is refused naming the loss."""
+    from graphnav.core.errors import ConfigError
+    from graphnav.estimators.backends import GraphBackend
+    from graphnav.estimators.health import LostTrack
+    process = GraphBackend.process
+
+    def lost_at_150(self, kf):
+        if kf.t >= 150.0:
+            raise LostTrack(kf.t, "the DVL innovation covariance cannot be inverted")
+        return process(self, kf)
+
+    monkeypatch.setattr(GraphBackend, "process", lost_at_150)
+    config, recs = records
+    nav, out, _ = _run(config, recs)
+    assert nav.lost_track[0] == 150.0 and out[-1].t == 149.0
+    with pytest.raises(ConfigError, match=r"state_at\(199.000\): the fixed-lag estimator lost track at t = 150.000 s "
+                       r"\(the DVL innovation covariance cannot be inverted\); no state after its last estimate "
+                       r"\(t = 149.000 s\)"):
+        nav.state_at(199.0)

@@ -132,6 +132,8 @@ class NisMonitor:
         self.n_warnings = 0
         self.first_event: str | None = None
         self.lost_at: float | None = None        # the time (s) the estimator lost track on a number (:meth:`lost`)
+        self.lost_why = ""                       # and the failure
+        self.lost_last_estimate: float | None = None    # the time (s) of the last estimate made before it
 
     # --- input ------------------------------------------------------------------------------------
     def record(self, t: float, nis: float, dof: int, accepted: bool = True) -> None:
@@ -194,12 +196,12 @@ class NisMonitor:
         self._since_reset = 0
         self._warn(t, f"re-acquired after a lockout: {how}")
 
-    def lost(self, t: float, why: str) -> None:
+    def lost(self, t: float, why: str, last_estimate: float | None = None) -> None:
         """The estimator lost track at time t (s) on a number (``why``: :class:`LostTrack`): diverged from then on,
-        for good, warned."""
-        self.lost_at = float(t)
-        if self.diverged:
-            self.intervals[-1][2] = f"lost track: {why}"
+        for good, warned. ``last_estimate``: the time (s) of the last estimate that stands, none after it."""
+        self.lost_at, self.lost_why, self.lost_last_estimate = float(t), why, last_estimate
+        if self.diverged:       # the interval keeps why it began (its start is not the loss's time)
+            self.intervals[-1][2] = f"{self.intervals[-1][2]}; lost track at t = {t:.3f} s: {why}"
             self._warn(t, f"lost track: {why}")
         else:
             self._enter(t, f"lost track: {why}")
@@ -251,7 +253,8 @@ class NisMonitor:
             "n_blocks_below_band": self.n_blocks_low,
             "window": o.window, "band_prob": o.band_prob, "divergence_ratio": o.divergence_ratio,
             "first_event": self.first_event,
-            **({"lost_track_at": self.lost_at} if self.lost_at is not None else {}),
+            **({"lost_track_at": self.lost_at, "lost_track": self.lost_why,
+                "last_estimate_before_lost_track": self.lost_last_estimate} if self.lost_at is not None else {}),
         }
 
 
@@ -285,6 +288,8 @@ def health_line(health: dict | None) -> str | None:
         state = ("DIVERGED (not recovered at the end)" if health.get("diverged_at_end")
                  else f"diverged {health['n_divergences']} time(s), recovered")
         extra = f", re-acquired {health['n_reacquired']} time(s)" if health.get("n_reacquired") else ""
+        if health.get("lost_track_at") is not None:
+            extra += f", {_lost_track(health)}"
         return f"health: {state}{extra}; {stats}; first: {health.get('first_event')}"
     if health.get("state") in ("degraded", "diverged"):
         return f"health: {health['state']} ({'; '.join(health.get('why') or [])}); {stats}"
@@ -319,6 +324,14 @@ def epoch_health(monitor: NisMonitor | None, coasting=None, sigma=None) -> tuple
     return "ok", ""
 
 
+def _lost_track(health: dict) -> str:
+    """What a run whose estimator lost track on a number (:meth:`NisMonitor.lost`) says of it: when, why, and where
+    its estimates end (it took no data after it)."""
+    last = health.get("last_estimate_before_lost_track")
+    return (f"lost track at t = {health['lost_track_at']:.3f} s ({health.get('lost_track') or 'a numerical failure'})"
+            + (f": no estimate after t = {last:.3f} s" if last is not None else ": no estimate"))
+
+
 def run_health(health: dict | None, info: dict | None = None, streams: dict | None = None) -> dict:
     """``{"state": ok|degraded|diverged, "why": [...]}`` of a whole run, from the NIS monitor's summary
     (``health``), the run's info (pure-inertial spans, the Navigator's ``received`` / ``samples_refused``) and
@@ -338,6 +351,8 @@ def run_health(health: dict | None, info: dict | None = None, streams: dict | No
         elif health.get("diverged"):
             worse("degraded", f"diverged {health.get('n_divergences')} time(s), recovered "
                               f"({health.get('first_event')})")
+        if health.get("lost_track_at") is not None:
+            worse("diverged", _lost_track(health))
         n_blocks, high = health.get("n_blocks") or 0, health.get("n_blocks_above_band") or 0
         if n_blocks and high > 0.5 * n_blocks:
             worse("degraded", f"NIS above its chi-square band in {high} of {n_blocks} blocks (covariance too small "

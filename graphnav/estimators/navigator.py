@@ -484,8 +484,13 @@ class Navigator:
         """The state at t (s), propagated from the latest estimate with the IMU samples received since
         (GTSAM preintegration with the estimated biases; the part of the newest sample up to t to first
         order), for t between the latest estimate and the newest IMU sample plus ``max_extrapolation_s``.
-        Repeated calls with increasing t integrate each new sample once (tens of microseconds a call)."""
+        Repeated calls with increasing t integrate each new sample once (tens of microseconds a call). After a loss
+        of track (:attr:`lost_track`) there is no state to give: a ConfigError naming it."""
         est = self.estimate()
+        if self.lost_track is not None:     # propagated on from the last estimate, it drifted unsaid for as long
+            raise ConfigError(f"state_at({t:.3f}): the {self.backend_name} estimator lost track at t = "
+                              f"{self.lost_track[0]:.3f} s ({self.lost_track[1]}); no state after its last estimate "
+                              f"(t = {est.t:.3f} s)")
         # the samples since the one covering the latest estimate: the keyframer's (released), then the ones
         # still in the reorder buffer; a sample keeps its index here until the next estimate
         recent = _Concat(self.keyframer.samples, self._imu_q)
@@ -1078,7 +1083,10 @@ class Navigator:
                 if not (np.all(np.isfinite(est.p_n)) and np.all(np.isfinite(est.v_n))):
                     raise LostTrack(kf.t, f"its estimate is not finite (velocity {np.linalg.norm(est.v_n):.3g} m/s)")
             except (LostTrack, np.linalg.LinAlgError, RuntimeError) as exc:
-                if isinstance(exc, RuntimeError) and not is_indeterminant(exc):
+                # numpy's singular or not positive definite matrix is the numbers failing; an array of the wrong shape
+                # ("Last 2 dimensions of the array must be square") is a programming error, to be seen as one
+                if (isinstance(exc, RuntimeError) and not is_indeterminant(exc)
+                        or isinstance(exc, np.linalg.LinAlgError) and "dimension" in str(exc)):
                     raise
                 self._lose_track(kf.t, exc.why if isinstance(exc, LostTrack) else
                                  f"{type(exc).__name__}: {str(exc).strip().splitlines()[0]}")
@@ -1113,7 +1121,7 @@ class Navigator:
         monitor = self.backend.monitor
         if monitor is None or monitor.lost_at is not None:
             return
-        monitor.lost(t, why)
+        monitor.lost(t, why, self._latest.t if self._latest is not None else None)
         made = f" (to t = {self._latest.t:.3f} s)" if self._latest is not None else ""
         warnings.warn(f"navigator: {self.backend_name} lost track at t = {t:.3f} s ({why}); it takes no more data: "
                       f"the {self.n_estimates} estimate(s) made{made} stand, none follows", RuntimeWarning,
