@@ -598,3 +598,30 @@ def test_no_state_is_propagated_after_a_loss_of_track(records, monkeypatch):
                        r"\(the DVL innovation covariance cannot be inverted\); no state after its last estimate "
                        r"\(t = 149.000 s\)"):
         nav.state_at(199.0)
+
+
+@pytest.mark.parametrize("held", [(5,), (0, 1, 2, 3, 4, 5)])
+def test_a_gap_judged_beside_an_imu_channel_reading_one_value_leaves_that_channel_out(held):
+    """A 100 Hz IMU in a turn whose rate grows 0.2 deg/s each second, its clock stepped 5 s (no time passed), one
+    channel (or all six) reading exactly one value either side (a quantised gyro, a dead axis): that channel's fit had
+    no spread, its chi-square term 0/0, every chi-square NaN and the gap "undecided" ("step nan, loss nan"), the turn
+    bridged and the rest of the run degraded. The channel is left out: the other five tell the step; six held still
+    is undecided with its reason."""
+    from graphnav.estimators.clock_steps import judge_gap
+    rng = np.random.default_rng(3)
+
+    def samples(t_vehicle, t_stamp):
+        x = np.column_stack([0.2 * np.sin(t_vehicle), 0.1 * t_vehicle, -9.8 + 0.05 * t_vehicle ** 2,
+                             0.01 * t_vehicle, -0.02 * t_vehicle, np.radians(0.2) * t_vehicle ** 2])
+        x = x + rng.normal(0.0, 1e-3, x.shape)
+        x[:, list(held)] = 0.0
+        return [(float(s), x[k, :3], x[k, 3:]) for k, s in enumerate(t_stamp)]
+
+    t_before = np.arange(100) * 0.01 + 10.0
+    t_after = t_before[-1] + 0.01 + np.arange(100) * 0.01
+    verdict = judge_gap(samples(t_before, t_before), samples(t_after, t_after + 5.0), 0.01)
+    if len(held) == 6:
+        assert verdict.kind == "undecided" and "every IMU channel reads one value" in verdict.why
+    else:
+        assert verdict.kind == "step" and np.isfinite(verdict.chi2_loss), verdict
+        assert "chi-square over the 5 (the others read one value either side) IMU channels" in verdict.why

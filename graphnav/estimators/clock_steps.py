@@ -93,9 +93,16 @@ def judge_gap(before: list, after: list, period_s: float) -> GapVerdict | None:
     var_step = ela ** 2 + elb ** 2 + (esb * period_s) ** 2
     r_loss = la - (lb + 0.5 * (sb + sa) * tau)
     var_loss = ela ** 2 + elb ** 2 + (0.5 * tau) ** 2 * (esa ** 2 + esb ** 2) + (0.5 * (sa - sb) * tau) ** 2
-    chi2_step = float(np.sum(r_step ** 2 / var_step))
-    chi2_loss = float(np.sum(r_loss ** 2 / var_loss))
-    numbers = f"chi-square over the six IMU channels: step {chi2_step:.3g}, loss {chi2_loss:.3g}"
+    # a channel reading exactly one value on both sides (a quantised gyro at rest, a dead axis) has no spread to
+    # weigh its residuals by (0/0: every chi-square NaN, every gap undecided): it tells nothing, and is left out
+    told = (var_step > 0.0) & (var_loss > 0.0)
+    if not told.any():
+        return GapVerdict("undecided", float("nan"), float("nan"), "every IMU channel reads one value on both sides "
+                          "of it (nothing to judge by)")
+    chi2_step = float(np.sum(r_step[told] ** 2 / var_step[told]))
+    chi2_loss = float(np.sum(r_loss[told] ** 2 / var_loss[told]))
+    channels = "six" if told.all() else f"{int(told.sum())} (the others read one value either side)"
+    numbers = f"chi-square over the {channels} IMU channels: step {chi2_step:.3g}, loss {chi2_loss:.3g}"
     if chi2_loss > max(RATIO * chi2_step, chi2_step + MARGIN_CHI2):
         return GapVerdict("step", chi2_step, chi2_loss, "the IMU readings join up across it as if no time passed "
                           f"and do not fit {tau:.3f} s of the vehicle's motion ({numbers})")
