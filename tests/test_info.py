@@ -90,19 +90,22 @@ def test_a_20_s_gap_is_bridged_without_a_jump(how):
     assert 0.1 < err[-1] < radius * (1 - np.cos(np.pi * 21 / PERIOD)) * 2
 
 
-@pytest.mark.parametrize("later_s, words", [(3 * 86400.0, "3 day(s)"), (2 * 3600.0, "2 h"), (3659.0, "1.02 h")])
+@pytest.mark.parametrize("later_s, words", [(3 * 86400.0, "3 day(s) (259201 s)"), (2 * 3600.0, "2 h (7201 s)"),
+                                             (3600.0, "1 h (3601 s)"), (3659.0, "1.02 h (3660 s)")])
 def test_a_gap_of_hours_or_days_is_refused_naming_it_not_bridged(later_s, words):
     """The circle log whose pings from the 101st on come 3 days (or 2 h) later, as a log joined to the next one's
     or a clock set on: refused naming the gap by its pings and where to cut the log. It was bridged by interpolating
     the velocity across it (3 days: 389 km "travelled"), warned only as a gap whose track is a guess. A 59 min gap
-    is still bridged, warned. A gap of 61 min is said to three figures (it read "1.0 h", as the limit it is over)."""
+    is still bridged, warned. A gap just over the hour is said with its seconds (it read "1.0 h", as the limit it is
+    over)."""
     log, _ = circle_log()
     t = np.where(np.arange(len(log.t)) >= 100, log.t + later_s, log.t)
     joined = DvlLog(t=t, v_d=log.v_d, v_d_valid=log.v_d_valid, frame="instrument", attitude_deg=log.attitude_deg,
                     v_n=log.v_n, source="joined")
     with pytest.raises(DataError, match=re.escape(
-            f"joined, field 't': 1 gap(s) without a velocity over ground longer than 1 h: {words} from ping 100 at "
-            f"t = 99.000 s to ping 101 at t = {100 + later_s:.3f} s. A dead reckoning cannot bridge that") + ".*"
+            f"joined, field 't': 1 gap(s) without a velocity over ground longer than 1 h (3600 s): {words} from "
+            f"ping 100 at t = 99.000 s to ping 101 at t = {100 + later_s:.3f} s. A dead reckoning cannot bridge that")
+            + ".*"
             + re.escape("dead-reckon each side on its own: cut the log before ping 101")):
         dvl_dead_reckoning(joined)
     hour = DvlLog(t=np.where(np.arange(len(log.t)) >= 100, log.t + 3539.0, log.t), v_d=log.v_d,

@@ -532,7 +532,8 @@ def test_a_second_recording_joined_without_a_cut_is_named_not_read_as_one_record
     if second == "3 days later":
         named = ".*".join(re.escape(part) for part in (
             f"2 recordings joined in one file without a cut, ensemble 224 (byte {len(raw)}) starting the ensemble "
-            f"numbers again 3 day(s) after ensemble 485 (byte {spans[-1][0]}): recording 1: ensembles 224-485, from "
+            f"numbers again 3 day(s) ({retimed[0] - clock[-1]:.0f} s) after ensemble 485 (byte {spans[-1][0]}): "
+            f"recording 1: ensembles 224-485, from "
             f"{pd0._utc(clock[0])} to {pd0._utc(clock[-1])} UTC (bytes 0-{len(raw) - 1}); recording 2: ensembles "
             f"224-485, from {pd0._utc(retimed[0])} to {pd0._utc(retimed[-1])} UTC",
             "another deployment, not a pause to bridge",
@@ -713,7 +714,8 @@ def test_a_second_recording_days_later_whose_numbers_run_on_is_not_dead_reckoned
         warnings.simplefilter("ignore")
         assert cli.main(["smooth", "--data", str(path), "--no-plots", "--out", str(tmp_path / "out")]) != 0
     assert not (tmp_path / "out" / "trajectory.csv").exists()           # no track bridging the 3 days
-    assert (f"1 gap(s) without a velocity over ground longer than 1 h: 3 day(s) from ensemble 485 (byte "
+    assert (f"1 gap(s) without a velocity over ground longer than 1 h (3600 s): 3 day(s) (259200 s) from ensemble 485 "
+            f"(byte "
             f"{spans[-1][0]}) at t = {clock[-1]:.3f} s ({pd0._utc(clock[-1])} UTC) to ensemble 486 (byte {len(raw)})"
             ) in said.getvalue()
     assert f"dead-reckon each side on its own: cut the log before ensemble 486 (byte {len(raw)})" in said.getvalue()

@@ -3379,7 +3379,8 @@ def test_a_nan_run_split_by_one_row_beyond_full_scale_is_one_gap_naming_its_line
     data, config = _akit_as_column_map(akit_dir, tmp_path / "lone", imu_edit=later)
     with pytest.raises(DataError, match=r"imu\.csv, line 20701: IMU gap left by 698 IMU row\(s\) without a "
                                         r"measurement \(NaN or infinite values\) and 1 alone between them \(which "
-                                        r"bridges nothing\) of 700\.01 s after t = 199\.995 s is longer than the 600 s"):
+                                        r"bridges nothing\) of 700\.01 s after t = 199\.995 s is longer than the "
+                                        r"600 s"):
         _quiet_load(load_mission, data, config)
     # two rows between the runs are two samples: each run bridged alone, as before
     t = np.arange(10.0) * 100.0

@@ -835,11 +835,13 @@ def _refuse_far_joins(raw: bytes, scan: Pd0Scan, source: str) -> None:
 
 
 def _gap_words(gap_s: float) -> str:
-    """A gap in s as a user reads it: seconds, minutes, hours or days, to three figures (a gap of 61 min is "1.02 h",
-    not the "1.0 h" of the one-hour limit it is over)."""
+    """A gap in s as a user reads it: seconds, minutes, hours or days to three figures, hours and days with their
+    seconds (a gap of 3601 s reads "1 h (3601 s)", not the "1 h" of the one-hour limit it is over)."""
     for unit, size in (("day(s)", 86400.0), ("h", 3600.0), ("min", 60.0)):
         if gap_s >= size:
-            return f"{gap_s / size:.3g} {unit}"
+            n = gap_s / size
+            words = f"{n:.3g} {unit}" if n < 100 else f"{n:.0f} {unit}"
+            return words if size < 3600.0 else f"{words} ({gap_s:.0f} s)"
     return f"{gap_s:.2f} s"
 
 
