@@ -41,7 +41,7 @@ import numpy as np
 from scipy.optimize import minimize_scalar
 from scipy.stats import norm, wilcoxon
 
-from graphnav.calibration.reference import _sigma_from_curvature
+from graphnav.calibration.reference import GT_MIN_CLEAR_INTERVALS, _sigma_from_curvature
 from graphnav.core.dvl_kinematics import (COARSE_MAX_WINDOWS, MAX_CLOCK_GAP_S, MAX_WINDOW_GAP_S, MIN_OVERLAP_S,
                                           ImuIntegrals, across_outages_model, gaps_said, imu_gaps, imu_gaps_said,
                                           imu_integrals, offset_grid, outage_cut_model, refine_reach, refined_offset,
@@ -705,12 +705,6 @@ COARSE_MAX_GT_INTERVALS = 1200
 #: GT intervals longer than this many GT periods (a hole in the file) are left out: the angle turned over them is
 #: not the first-order one the gyro integral gives.
 GT_INTERVAL_MAX_PERIODS = 1.5
-#: GT intervals an IMU gap falls in are left out of the GT clock search (:meth:`_AngleModel.inside`) where at least
-#: this many are left clear of the gaps over the refinement's reach, else kept (as the fine GT time offset keeps them,
-#: :func:`~graphnav.calibration.reference.estimate_gt_time_offset`): a 1 Hz GT beside an IMU losing 0.4 s every 2 s
-#: (0.3 s every 1 s) left 1-2 of an A-KIT log's 398 intervals, and the fit, scoring none, was put 0.06-0.95 s off with a
-#: NaN sigma yet applied (-198.6 s, refused); scored across the gaps as before, 25-50 ms off.
-GT_MIN_CLEAR_INTERVALS = 10
 
 
 class _AngleModel:

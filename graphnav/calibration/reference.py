@@ -236,20 +236,28 @@ def estimate_gt_time_offset(t_imu, omega_b, t_gt, C_b_n_gt, lat_rad: float | Non
     return OffsetEstimate(x, _sigma_from_curvature(sse, curv, n, 1), float(np.sqrt(sse / n)), n)
 
 
+#: GT intervals an IMU gap falls in are left out of the GT clock search (`clock._AngleModel.inside`) where at least
+#: this many are left clear of the gaps over the refinement's reach, else kept (as the fine GT time offset keeps them,
+#: :func:`estimate_gt_time_offset`, :func:`_clear_of_imu_gaps`): a 1 Hz GT beside an IMU losing 0.4 s every 2 s
+#: (0.3 s every 1 s) left 1-2 of an A-KIT log's 398 intervals, and the fit, scoring none, was put 0.06-0.95 s off with a
+#: NaN sigma yet applied (-198.6 s, refused); scored across the gaps as before, 25-50 ms off.
+GT_MIN_CLEAR_INTERVALS = 10
+
+
 def _clear_of_imu_gaps(t_imu: np.ndarray, t_ref: np.ndarray, usable: np.ndarray, search_s: tuple[float, float]
                        ) -> np.ndarray:
     """The reference intervals ``usable`` (K-1,) less those a gap in the IMU stamps ``t_imu`` (s,
     :func:`~graphnav.core.dvl_kinematics.imu_gaps`) falls in at any offset in ``search_s`` (s): across one the gyro's
     integral is interpolated, not measured. A simulated 200 s log's GT (10 Hz) 0.3 s late beside an IMU losing 0.4 s
     every 7 s (1 s every 20 s) was put 18-20 (29-36) ms off, sigma 0.7 (1.3) ms; gapless within 0.1 ms. Where that
-    leaves under 10 (an IMU losing samples every few seconds), they are kept as they are."""
+    leaves under :data:`GT_MIN_CLEAR_INTERVALS` (an IMU losing samples every few seconds), they are kept as they are."""
     from graphnav.core.dvl_kinematics import imu_gaps
     gaps = imu_gaps(t_imu)
     if not len(gaps):
         return usable
     clear = (np.searchsorted(gaps[:, 1], t_ref[:-1] + search_s[0], side="right")
              == np.searchsorted(gaps[:, 0], t_ref[1:] + search_s[1], side="left"))
-    return usable & clear if np.count_nonzero(usable & clear) >= 10 else usable
+    return usable & clear if np.count_nonzero(usable & clear) >= GT_MIN_CLEAR_INTERVALS else usable
 
 
 def dvl_design(reference: Reference, t_dvl: np.ndarray, v_dvl: np.ndarray,
