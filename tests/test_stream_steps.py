@@ -625,3 +625,17 @@ def test_a_gap_judged_beside_an_imu_channel_reading_one_value_leaves_that_channe
     else:
         assert verdict.kind == "step" and np.isfinite(verdict.chi2_loss), verdict
         assert "chi-square over the 5 (the others read one value either side) IMU channels" in verdict.why
+
+
+def test_an_all_zero_imu_row_right_after_a_joined_clock_step_is_dropped_as_filler():
+    """The first IMU sample after a step of every stream's clock is joined to the one before it (no time passed);
+    a logger's all-zero filler row there went in as a sample of zero specific force (about 0.1 m/s of velocity at
+    100 Hz), and a keyframer holding no sample yet raised an IndexError. Both now go in as any sample does: the zero
+    row dropped and counted, the first sample started on."""
+    from graphnav.estimators.keyframes import Keyframer
+    k = Keyframer(SensorConfig())
+    k.join_step(0.0, (0.0, 0.0, -9.8), (0.0, 0.0, 0.0))          # no sample before it: started on
+    k.add_imu(0.01, (0.0, 0.0, -9.8), (0.0, 0.0, 0.0))
+    with pytest.warns(RuntimeWarning, match="all-zero IMU row"):
+        k.join_step(5.02, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
+    assert k.stats.zero_imu_rows == 1 and [s[0] for s in k._samples][-1] == 0.01

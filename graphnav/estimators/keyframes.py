@@ -361,7 +361,10 @@ class Keyframer:
         """The IMU sample at stamp t (s) after a forward step of the clock every stream shares (decided by the
         Navigator, :mod:`graphnav.estimators.clock_steps`): joined to the sample before it one IMU period on, no
         time passing for the vehicle over the rest of the step (nothing bridged, nothing turned); the IMU-only
-        keyframes through the DVL's silence count on from the vehicle's time."""
+        keyframes through the DVL's silence count on from the vehicle's time. An all-zero row (a logger's filler: no
+        measurement) or a first sample goes in as any sample does (:meth:`add_imu`: dropped, counted; or started on)."""
+        if not self._samples or (f_b[2] == 0.0 and not (any(f_b) or any(omega_b))):
+            return self.add_imu(t, f_b, omega_b)
         t0 = self._samples[-1][0]
         dead = t - t0 - self.imu_period.period_s
         if dead > 0:
