@@ -591,8 +591,8 @@ EXIT_EPILOG = ("exit status: 0 the run finished and its estimator was healthy at
                "'health' in summary.json and the health column); 1 an error in the input or the options (the message "
                "names the file, line and field; also when more than half of a stream was refused, or when no "
                "estimate was made); 2 a usage error; "
-               f"{EXIT_DIVERGED} the estimator DIVERGED and had not recovered at the end (the trajectory is written but "
-               "must not be trusted); 130 interrupted")
+               f"{EXIT_DIVERGED} the estimator DIVERGED and had not recovered at the end, or lost track (no estimate "
+               "after it; the trajectory is written but must not be trusted); 130 interrupted")
 
 
 def run_health_record(sol_info: dict, mission=None) -> dict:
